@@ -1,0 +1,198 @@
+"""Tool latency and throughput over HTTP on localhost.
+
+Starts ``physmind serve`` on a free loopback port with a temporary data
+directory (or uses ``--url``), registers a six-object world (a chain of three
+cylinders and a cube, a late sphere hitting the cube, a sphere leaving the
+view), then measures:
+
+* latency p50/p99 of sequential requests (one keep-alive connection) for
+  check_contact, inspect_world_state and simulate_edit;
+* throughput (requests/s) with 16 concurrent clients, bounded in count and time.
+
+Usage:  python -m bench.bench_server [--requests 300] [--duration 5] [--clients 16]
+Prints a Markdown table. Loopback only; nothing leaves the machine.
+"""
+
+from __future__ import annotations
+
+import argparse
+import http.client
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+from urllib.parse import urlparse
+
+from tqdm import tqdm
+
+REPO = Path(__file__).resolve().parents[1]
+
+
+def six_object_world_document() -> dict:
+    from world.camera import look_at_camera
+    from world.io import world_to_dict
+    from world.types import Body, BodyState, Shape, World
+
+    cyl, ball = Shape("cylinder", radius=0.2, half_height=0.2), Shape("sphere", radius=0.2)
+    bodies = (
+        Body(0, cyl, BodyState((-2.0, 0.0, 0.2), (3.0, 0.0, 0.0)), friction=0.1, restitution=0.9, color="red", material="metal"),
+        Body(1, cyl, BodyState((-0.8, 0.0, 0.2)), friction=0.1, restitution=0.9, color="blue", material="rubber"),
+        Body(2, cyl, BodyState((0.2, 0.0, 0.2)), friction=0.1, restitution=0.9, color="green", material="metal"),
+        Body(3, Shape("cube", half_extent=0.2), BodyState((1.2, 0.0, 0.2), yaw=0.3), friction=0.2, restitution=0.9, color="yellow", material="rubber"),
+        Body(4, ball, BodyState((1.97, -3.0, 0.2), (0.0, 3.5, 0.0), time=1.0), mass=0.5, friction=0.15, color="purple", material="metal"),
+        Body(5, ball, BodyState((-3.0, 2.5, 0.2), (-3.0, 0.5, 0.0)), friction=0.05, color="gray", material="rubber"),
+    )
+    world = World(bodies=bodies, fps=25.0, observed_frames=128, camera=look_at_camera((0.0, -9.0, 6.0), (0.0, 0.0, 0.0)), id="bench-six")
+    return world_to_dict(world)
+
+
+def free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def start_server(data_dir: str, validate_results: bool) -> tuple[subprocess.Popen, str]:
+    port = free_port()
+    env = {k: v for k, v in os.environ.items() if not k.startswith("PHYSMIND_")}
+    env["PHYSMIND_LOG_LEVEL"] = "WARNING"  # per-request log lines would measure stderr, not the tools
+    env["PHYSMIND_VALIDATE_RESULTS"] = "1" if validate_results else "0"
+    process = subprocess.Popen([sys.executable, "-m", "server.cli", "serve", "--host", "127.0.0.1", "--port", str(port),
+                                "--data-dir", data_dir], cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    url = f"http://127.0.0.1:{port}"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        try:
+            status, _ = request(connect(url), "GET", "/healthz")
+            if status == 200:
+                return process, url
+        except OSError:
+            time.sleep(0.1)
+    process.kill()
+    raise RuntimeError("server did not start within 60 s")
+
+
+def connect(url: str) -> http.client.HTTPConnection:
+    parsed = urlparse(url)
+    if parsed.hostname not in ("127.0.0.1", "localhost", "::1"):
+        raise ValueError(f"--url: loopback only, got {parsed.hostname!r}")
+    return http.client.HTTPConnection(parsed.hostname, parsed.port, timeout=60)
+
+
+def request(conn: http.client.HTTPConnection, method: str, path: str, body: dict | None = None) -> tuple[int, bytes]:
+    payload = None if body is None else json.dumps(body).encode()
+    headers = {"Content-Type": "application/json"} if payload is not None else {}
+    conn.request(method, path, body=payload, headers=headers)
+    response = conn.getresponse()
+    return response.status, response.read()
+
+
+def percentile(values: list[float], q: float) -> float:
+    ordered = sorted(values)
+    index = min(len(ordered) - 1, max(0, round(q / 100 * (len(ordered) - 1))))
+    return ordered[index]
+
+
+def latency(url: str, path: str, body: dict, count: int, label: str) -> dict:
+    conn = connect(url)
+    request(conn, "POST", path, body)  # warm caches
+    samples = []
+    for _ in tqdm(range(count), desc=f"latency {label}", leave=False, file=sys.stderr):
+        started = time.perf_counter()
+        status, _ = request(conn, "POST", path, body)
+        samples.append((time.perf_counter() - started) * 1000)
+        if status != 200:
+            raise RuntimeError(f"{label}: HTTP {status}")
+    conn.close()
+    return {"p50": percentile(samples, 50), "p99": percentile(samples, 99), "mean": statistics.fmean(samples), "n": count}
+
+
+def throughput(url: str, path: str, body: dict, clients: int, max_requests: int, duration: float) -> dict:
+    lock = threading.Lock()
+    done = {"ok": 0, "errors": 0}
+    deadline = time.monotonic() + duration
+
+    def worker() -> None:
+        conn = connect(url)
+        while time.monotonic() < deadline:
+            with lock:
+                if done["ok"] + done["errors"] >= max_requests:
+                    break
+            status, _ = request(conn, "POST", path, body)
+            with lock:
+                done["ok" if status == 200 else "errors"] += 1
+        conn.close()
+
+    threads = [threading.Thread(target=worker) for _ in range(clients)]
+    started = time.perf_counter()
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    elapsed = time.perf_counter() - started
+    return {"rps": done["ok"] / elapsed, "requests": done["ok"], "errors": done["errors"], "seconds": elapsed}
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--url", help="use a running server (loopback only) instead of starting one")
+    parser.add_argument("--requests", type=int, default=300, help="sequential requests per inspection tool (simulate_edit: a third)")
+    parser.add_argument("--clients", type=int, default=16)
+    parser.add_argument("--duration", type=float, default=5.0, help="seconds per throughput run (upper bound)")
+    parser.add_argument("--max-throughput-requests", type=int, default=5000)
+    parser.add_argument("--no-validate-results", action="store_true", help="start the server with PHYSMIND_VALIDATE_RESULTS=0")
+    args = parser.parse_args(argv)
+    if args.requests < 1 or args.clients < 1 or args.duration <= 0:
+        raise SystemExit("bench_server: --requests, --clients and --duration must be positive")
+
+    process = None
+    tmp = tempfile.TemporaryDirectory()
+    try:
+        if args.url:
+            url = args.url.rstrip("/")
+            connect(url)
+        else:
+            process, url = start_server(tmp.name, not args.no_validate_results)
+        status, body = request(connect(url), "POST", "/v1/worlds", {"world": six_object_world_document()})
+        if status != 201:
+            raise RuntimeError(f"creating the world failed: {status} {body[:300]!r}")
+        world_id = json.loads(body)["world_id"]
+        tools = f"/v1/worlds/{world_id}/tools"
+        cases = [
+            ("check_contact", {"object_a": 0, "object_b": 1}, args.requests),
+            ("inspect_world_state", {"frame": 60}, args.requests),
+            ("simulate_edit", {"edit_type": "remove_object", "object_id": 1, "trajectory_detail": "summary"}, max(1, args.requests // 3)),
+            ("simulate_edit (sampled)", {"edit_type": "remove_object", "object_id": 1}, max(1, args.requests // 3)),
+        ]
+        rows = []
+        for label, payload, count in cases:
+            tool = label.split(" ")[0]
+            lat = latency(url, f"{tools}/{tool}", payload, count, label)
+            thr = throughput(url, f"{tools}/{tool}", payload, args.clients, args.max_throughput_requests, args.duration)
+            rows.append((label, lat, thr))
+        print(f"\nPhysMind tool server, 6-object world, {os.cpu_count()} CPUs, result validation "
+              f"{'off' if args.no_validate_results else 'on'}, loopback HTTP/1.1 keep-alive\n")
+        print(f"| tool | p50 ms | p99 ms | mean ms | n | req/s ({args.clients} clients) | requests | errors |")
+        print("|---|---:|---:|---:|---:|---:|---:|---:|")
+        for label, lat, thr in rows:
+            print(f"| {label} | {lat['p50']:.2f} | {lat['p99']:.2f} | {lat['mean']:.2f} | {lat['n']} | "
+                  f"{thr['rps']:.0f} | {thr['requests']} | {thr['errors']} |")
+    finally:
+        if process is not None:
+            process.terminate()
+            try:
+                process.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                process.kill()
+        tmp.cleanup()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

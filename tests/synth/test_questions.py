@@ -1,0 +1,56 @@
+"""Question generation units: shortest unique references and balanced options."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from planner.program import EventRecord, ObjectRecord, ProgramScene, execute
+from synth.questions import _choose_balanced, object_references, scene_questions
+
+O = ObjectRecord
+
+
+@pytest.mark.parametrize(
+    "objects, target, phrases",
+    [
+        # a unique shape is enough
+        ((O(0, "red", "metal", "sphere"), O(1, "red", "metal", "cube"), O(2, "blue", "rubber", "cube")), 0, {"sphere"}),
+        # colour or material alone both single out object 2: both are shortest
+        ((O(0, "red", "metal", "sphere"), O(1, "red", "metal", "cube"), O(2, "blue", "rubber", "cube")), 2, {"blue object", "rubber object"}),
+        # two attributes needed
+        ((O(0, "red", "metal", "cube"), O(1, "red", "rubber", "cube"), O(2, "blue", "metal", "cube"), O(3, "red", "metal", "sphere")), 0, {"red metal cube"}),
+        ((O(0, "red", "metal", "cube"), O(1, "red", "rubber", "cube"), O(2, "blue", "metal", "sphere")), 1, {"rubber object"}),
+    ],
+)
+def test_shortest_unique_references(objects, target, phrases):
+    references = object_references(objects)[target]
+    assert {r.phrase for r in references} == phrases
+    scene = ProgramScene(objects=objects, events=())
+    for reference in references:
+        assert execute(list(reference.program), scene) == objects[target]
+
+
+@pytest.mark.parametrize("n_correct, n_wrong, total", [(5, 5, 4), (1, 6, 4), (6, 1, 4), (0, 3, 2), (2, 0, 2), (1, 1, 4)])
+def test_balanced_choice_respects_pools(n_correct, n_wrong, total):
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        picked = _choose_balanced(rng, list(range(n_correct)), list(range(100, 100 + n_wrong)), total)
+        assert len(picked) == min(total, n_correct + n_wrong)
+        assert all((value < 100) == is_correct for value, is_correct in picked)
+        assert len({v for v, _ in picked}) == len(picked)
+
+
+def test_generated_answers_match_the_interpreter_and_types_appear():
+    objects = (O(0, "red", "metal", "sphere"), O(1, "blue", "rubber", "cube"), O(2, "green", "rubber", "cylinder"), O(3, "yellow", "metal", "cube"))
+    C = lambda a, b, f: EventRecord("collision", (a, b), f)  # noqa: E731
+    events = (EventRecord("in", (2,), 10), C(0, 1, 20), C(1, 2, 40), C(0, 3, 70), C(2, 3, 140))
+    counterfactual = {0: (C(1, 2, 50),), 1: (C(0, 3, 70), C(0, 2, 90)), 2: (C(0, 1, 20), C(0, 3, 70)), 3: (C(0, 1, 20), C(1, 2, 40))}
+    scene = ProgramScene(objects=objects, events=events, observed_frames=128, counterfactual=lambda i: counterfactual[i])
+    questions = scene_questions(scene, np.random.default_rng(1))
+    assert {q["question_type"] for q in questions} == {"explanatory", "predictive", "counterfactual"}
+    assert [q["question_id"] for q in questions] == list(range(len(questions)))
+    for q in questions:
+        for choice in q["choices"]:
+            expected = execute(choice["program"] + q["program"], scene)
+            assert choice["answer"] == ("correct" if expected == "yes" else "wrong")

@@ -1,0 +1,87 @@
+"""Laws that hold for every scene (hypothesis): no energy gain, bounded interpenetration, termination."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from world.contacts import footprint_distance
+from world.rollout import MAX_EVENTS, footprint_of, simulate
+from world.types import Body, BodyState, Shape, World
+
+# Interpenetration bound (m) for every sampled frame. Contacts are exact roots
+# (circles) or bisected to 1e-12 s (squares), so only rounding remains.
+PENETRATION_TOL = 1e-6
+FPS = 200.0
+HORIZON = 600  # 3 s
+
+SPACING = 0.8  # grid cell size (m): with sizes <= 0.2 and jitter <= 0.1, no initial overlap
+
+
+@st.composite
+def scenes(draw, spin: bool):
+    n = draw(st.integers(2, 6))
+    cells = draw(st.lists(st.tuples(st.integers(0, 2), st.integers(0, 2)), min_size=n, max_size=n, unique=True))
+    bodies = []
+    for body_id, (cx, cy) in enumerate(cells):
+        kind = draw(st.sampled_from(["sphere", "cylinder", "cube"]))
+        size = draw(st.floats(0.08, 0.2))
+        shape = (Shape("cube", half_extent=size) if kind == "cube"
+                 else Shape(kind, radius=size, half_height=0.1 if kind == "cylinder" else 0.0))
+        jitter = draw(st.tuples(st.floats(-0.1, 0.1), st.floats(-0.1, 0.1)))
+        speed = draw(st.floats(0.0, 4.0))
+        heading = draw(st.floats(0.0, 2 * math.pi))
+        state = BodyState(
+            (cx * SPACING + jitter[0], cy * SPACING + jitter[1], shape.rest_height),
+            (speed * math.cos(heading), speed * math.sin(heading), 0.0),
+            yaw=draw(st.floats(0.0, math.pi)),
+            yaw_rate=draw(st.floats(-6.0, 6.0)) if spin else 0.0)
+        bodies.append(Body(body_id, shape, state, mass=draw(st.floats(0.2, 5.0)),
+                           friction=draw(st.floats(0.05, 1.0)), restitution=draw(st.floats(0.0, 1.0))))
+    return World(tuple(bodies), fps=FPS, observed_frames=HORIZON)
+
+
+def kinetic_energy(world: World, rollout) -> np.ndarray:
+    masses = np.array([b.mass for b in world.bodies])
+    return 0.5 * np.einsum("n,tni,tni->t", masses, rollout.velocities, rollout.velocities)
+
+
+PROPERTY_SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+
+
+@PROPERTY_SETTINGS
+@given(scenes(spin=True))
+def test_kinetic_energy_never_increases(world):
+    rollout = simulate(world, horizon_frames=HORIZON)
+    energy = kinetic_energy(world, rollout)
+    assert np.all(np.diff(energy) <= 1e-9 * (1.0 + energy[:-1]))
+
+
+@PROPERTY_SETTINGS
+@given(scenes(spin=False))
+def test_bodies_never_interpenetrate_beyond_the_tolerance(world):
+    rollout = simulate(world, horizon_frames=HORIZON)
+    footprints = [footprint_of(b) for b in world.bodies]
+    worst = math.inf
+    for a, b in itertools.combinations(range(len(world.bodies)), 2):
+        for t in range(HORIZON):
+            gap, _, _ = footprint_distance(footprints[a], *rollout.positions[t, a, :2], rollout.yaw[t, a],
+                                           footprints[b], *rollout.positions[t, b, :2], rollout.yaw[t, b])
+            worst = min(worst, gap)
+    assert worst >= -PENETRATION_TOL
+
+
+@PROPERTY_SETTINGS
+@given(scenes(spin=True))
+def test_rollouts_terminate_with_everything_at_rest(world):
+    rollout = simulate(world, horizon_frames=HORIZON)
+    assert rollout.notes == ()
+    assert len(rollout.events) < MAX_EVENTS
+    # Speeds are at most 4 m/s and mu >= 0.05, so every slide ends within 4 / (0.05 g) = 8.2 s;
+    # check the flows end: the last frame's speeds equal those of a longer rollout's at that time.
+    longer = simulate(world, horizon_frames=HORIZON * 3)
+    assert np.all(np.linalg.norm(longer.velocities[-1], axis=1) == 0.0)

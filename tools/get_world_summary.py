@@ -1,0 +1,66 @@
+"""get_world_summary: the objects of a world (ids, attributes, parameters) and its registered rollouts."""
+
+from __future__ import annotations
+
+from typing import Any, Mapping
+
+from tools.common import fit_error, r, vec
+from tools.registry import ToolSpec
+from tools.session import WorldSession, default_horizon_frames
+
+NAME = "get_world_summary"
+
+
+def _size(body: Any) -> dict[str, float]:
+    shape = body.shape
+    if shape.kind == "cube":
+        return {"half_extent": r(shape.half_extent)}
+    if shape.kind == "cylinder":
+        return {"radius": r(shape.radius), "half_height": r(shape.half_height)}
+    return {"radius": r(shape.radius)}
+
+
+def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
+    world = session.world
+    objects = [
+        {
+            "object_id": int(body.id),
+            "shape": body.shape.kind,
+            "color": body.color,
+            "material": body.material,
+            "size": _size(body),
+            "mass": r(body.mass),
+            "friction": r(body.friction),
+            "restitution": r(body.restitution),
+            "entry_frame": int(round(body.initial.time * world.fps)),
+            "exit_frame": None if body.active_until is None else int(round(body.active_until * world.fps)),
+            "initial_position": vec(body.initial.position),
+            "initial_velocity": vec(body.initial.velocity),
+        }
+        for body in world.bodies
+    ]
+    return {
+        "world_id": session.world_id,
+        "name": world.id,
+        "fps": float(world.fps),
+        "observed_frames": int(world.observed_frames),
+        "default_horizon_frames": default_horizon_frames(world),
+        "gravity": float(world.gravity),
+        "has_camera": world.camera is not None,
+        "object_count": len(objects),
+        "objects": objects,
+        "rollout_ids": session.rollout_ids(),
+        "fit_error": fit_error(world),
+    }
+
+
+TOOL = ToolSpec(
+    name=NAME,
+    order=9,
+    description=(
+        "Summarise the world: every object's id, shape, color, material, size and fitted parameters "
+        "(mass, friction, restitution, entry frame, initial state), the video's fps and observed frames, "
+        "and the ids of the registered rollouts. Call it first to ground object descriptions to ids."
+    ),
+    run=run,
+)

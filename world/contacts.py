@@ -1,0 +1,451 @@
+"""Pairwise contact: exact footprint distances and the earliest approaching contact time.
+
+Bodies collide through their footprints on the support plane: spheres and
+cylinders are circles, cubes are squares rotated by their yaw. Heights are
+not compared (tabletop scenes: every body touches the plane).
+
+* circle-circle: the relative position of two quadratic-in-time flows is a
+  quadratic vector polynomial, so ``|d(t)|^2 - R^2`` is a quartic; its real
+  roots in the window are isolated exactly by the roots of its derivatives
+  (down to a closed-form quadratic) and refined by bracketed Newton to ~1e-15
+  relative (``real_roots``). Exact up to floating point.
+* anything with a square: conservative advancement on the exact signed
+  distance (never steps past a contact), then bisection once a step would
+  penetrate. Tolerance: the returned time has a gap in ``[0, CA_TOL]``, or
+  is within ``BISECT_TIME_TOL`` of the exact root.
+
+A contact counts only when the bodies approach along the contact normal
+(``(v_i - v_j) . n < -APPROACH_TOL``), or touch with no normal speed while
+their relative acceleration closes them (a pushing contact), so tangential
+grazes, separating roots and resting contacts create no events.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+CIRCLE, SQUARE = "circle", "square"
+
+TOUCH_TOL = 1e-7  # m: a gap this small counts as touching (for immediate contacts)
+CA_TOL = 1e-9  # m: conservative advancement stops when the gap is this small
+APPROACH_TOL = 1e-9  # m/s: normal approach speed below this is a graze, not a collision
+PUSH_ACCEL_TOL = 1e-9  # m/s^2: touching, no approach speed, but closing faster than this = pushing contact
+MIN_CA_STEP = 1e-4  # s: smallest advancement step; a penetration shorter than this can be missed
+BISECT_TIME_TOL = 1e-12  # s
+MAX_CA_ITERATIONS = 200  # then the pair is re-checked from where it stopped (Contact.normal None)
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """A body's outline on the plane: kind circle (size = radius, m) or square (size = half side, m)."""
+
+    kind: str
+    size: float
+
+    @property
+    def bounding_radius(self) -> float:
+        return self.size * math.sqrt(2.0) if self.kind == SQUARE else self.size
+
+
+@dataclass(frozen=True)
+class PlanarMotion:
+    """A body's horizontal quadratic flow relative to a reference time (tau = 0).
+
+    position, velocity, acceleration: (2,) m, m/s, m/s^2 at tau = 0.
+    yaw (rad), yaw_rate (rad/s), yaw_accel (rad/s^2) at tau = 0.
+    """
+
+    footprint: Footprint
+    position: tuple[float, float]
+    velocity: tuple[float, float]
+    acceleration: tuple[float, float]
+    yaw: float = 0.0
+    yaw_rate: float = 0.0
+    yaw_accel: float = 0.0
+
+    def at(self, tau: float) -> tuple[float, float, float, float, float]:
+        """x, y (m), yaw (rad), vx, vy (m/s) at tau (s)."""
+        p, v, a = self.position, self.velocity, self.acceleration
+        half = 0.5 * tau * tau
+        return (p[0] + v[0] * tau + a[0] * half, p[1] + v[1] * tau + a[1] * half,
+                self.yaw + self.yaw_rate * tau + self.yaw_accel * half,
+                v[0] + a[0] * tau, v[1] + a[1] * tau)
+
+
+@dataclass(frozen=True)
+class Contact:
+    """A predicted contact: tau (s after the reference time), normal (2,) unit from j to i, point (2,) m.
+
+    ``normal`` None means no contact was found up to tau, but the search budget
+    ran out: the caller must predict again from tau (no contact is skipped).
+    """
+
+    tau: float
+    normal: tuple[float, float] | None
+    point: tuple[float, float]
+
+
+# --------------------------------------------------------------------------- distances
+
+def point_square_distance(px: float, py: float, cx: float, cy: float, yaw: float, half: float) -> tuple[float, float, float]:
+    """Signed distance (m) from a point to a square, and the unit outward gradient (gx, gy).
+
+    Negative inside. The gradient points from the square towards the point.
+    """
+    c, s = math.cos(yaw), math.sin(yaw)
+    dx, dy = px - cx, py - cy
+    qx, qy = c * dx + s * dy, -s * dx + c * dy
+    ex, ey = abs(qx) - half, abs(qy) - half
+    if ex > 0.0 or ey > 0.0:
+        ox, oy = max(ex, 0.0), max(ey, 0.0)
+        dist = math.hypot(ox, oy)
+        lx, ly = math.copysign(ox, qx) / dist, math.copysign(oy, qy) / dist
+    elif ex > ey:
+        dist, lx, ly = ex, math.copysign(1.0, qx), 0.0
+    else:
+        dist, lx, ly = ey, 0.0, math.copysign(1.0, qy)
+    return dist, c * lx - s * ly, s * lx + c * ly
+
+
+def _square_corners(cx: float, cy: float, yaw: float, half: float) -> list[tuple[float, float]]:
+    c, s = math.cos(yaw) * half, math.sin(yaw) * half
+    return [(cx + c - s, cy + s + c), (cx - c - s, cy - s + c), (cx - c + s, cy - s - c), (cx + c + s, cy + s - c)]
+
+
+def footprint_distance(
+    fi: Footprint, xi: float, yi: float, yawi: float,
+    fj: Footprint, xj: float, yj: float, yawj: float,
+) -> tuple[float, tuple[float, float], tuple[float, float]]:
+    """Exact signed distance (m) between two footprints, the unit normal from j to i, and a contact point.
+
+    Negative when they overlap (then the magnitude is the penetration depth,
+    exact for circles, the minimum separating-axis overlap for squares).
+    """
+    if fi.kind == CIRCLE and fj.kind == CIRCLE:
+        dx, dy = xi - xj, yi - yj
+        dist = math.hypot(dx, dy)
+        nx, ny = (dx / dist, dy / dist) if dist > 0 else (1.0, 0.0)
+        gap = dist - fi.size - fj.size
+        return gap, (nx, ny), (xj + nx * (fj.size + 0.5 * gap), yj + ny * (fj.size + 0.5 * gap))
+    if fi.kind == CIRCLE:  # circle i, square j
+        sd, gx, gy = point_square_distance(xi, yi, xj, yj, yawj, fj.size)
+        gap = sd - fi.size
+        return gap, (gx, gy), (xi - gx * (fi.size + 0.5 * gap), yi - gy * (fi.size + 0.5 * gap))
+    if fj.kind == CIRCLE:  # square i, circle j
+        sd, gx, gy = point_square_distance(xj, yj, xi, yi, yawi, fi.size)
+        gap = sd - fj.size
+        return gap, (-gx, -gy), (xj - gx * (fj.size + 0.5 * gap), yj - gy * (fj.size + 0.5 * gap))
+    # square-square: separating axes first (also gives the overlap depth).
+    dx, dy = xi - xj, yi - yj
+    axes_i = ((math.cos(yawi), math.sin(yawi)), (-math.sin(yawi), math.cos(yawi)))
+    axes_j = ((math.cos(yawj), math.sin(yawj)), (-math.sin(yawj), math.cos(yawj)))
+    best_sep, best_axis = -math.inf, (1.0, 0.0)
+    for ux, uy in axes_i + axes_j:
+        extent_i = fi.size * (abs(ux * axes_i[0][0] + uy * axes_i[0][1]) + abs(ux * axes_i[1][0] + uy * axes_i[1][1]))
+        extent_j = fj.size * (abs(ux * axes_j[0][0] + uy * axes_j[0][1]) + abs(ux * axes_j[1][0] + uy * axes_j[1][1]))
+        along = ux * dx + uy * dy
+        sep = abs(along) - extent_i - extent_j
+        if sep > best_sep:
+            sign = 1.0 if along >= 0 else -1.0
+            best_sep, best_axis = sep, (sign * ux, sign * uy)
+    if best_sep <= 0.0:
+        # Overlapping (or exactly touching): depth and normal of the best separating axis.
+        return best_sep, best_axis, (0.5 * (xi + xj), 0.5 * (yi + yj))
+    # Separated convex polygons: the closest pair always involves a corner of one of them.
+    best = (math.inf, best_axis, (0.0, 0.0))
+    for cx, cy in _square_corners(xi, yi, yawi, fi.size):
+        sd, gx, gy = point_square_distance(cx, cy, xj, yj, yawj, fj.size)
+        if sd < best[0]:
+            best = (sd, (gx, gy), (cx - 0.5 * sd * gx, cy - 0.5 * sd * gy))
+    for cx, cy in _square_corners(xj, yj, yawj, fj.size):
+        sd, gx, gy = point_square_distance(cx, cy, xi, yi, yawi, fi.size)
+        if sd < best[0]:
+            best = (sd, (-gx, -gy), (cx - 0.5 * sd * gx, cy - 0.5 * sd * gy))
+    return best
+
+
+# --------------------------------------------------------------------------- contact times
+
+def _quartic_gap_coefficients(d0, dv, da, radius_sum):
+    """Coefficients (highest first) of |d0 + dv t + da t^2 / 2|^2 - R^2."""
+    a4 = 0.25 * (da[0] * da[0] + da[1] * da[1])
+    a3 = dv[0] * da[0] + dv[1] * da[1]
+    a2 = dv[0] * dv[0] + dv[1] * dv[1] + d0[0] * da[0] + d0[1] * da[1]
+    a1 = 2.0 * (d0[0] * dv[0] + d0[1] * dv[1])
+    a0 = d0[0] * d0[0] + d0[1] * d0[1] - radius_sum * radius_sum
+    return [a4, a3, a2, a1, a0]
+
+
+def circle_contact_time(
+    d0: tuple[float, float], dv: tuple[float, float], da: tuple[float, float],
+    radius_sum: float, tau_max: float,
+) -> float | None:
+    """Earliest tau in [0, tau_max] (s) where two circles touch while approaching, or None.
+
+    d0, dv, da: (2,) relative position (m), velocity (m/s), acceleration (m/s^2)
+    of body i minus body j at tau = 0. radius_sum: r_i + r_j (m).
+    """
+    dist0 = math.hypot(d0[0], d0[1])
+    radial_speed0 = (d0[0] * dv[0] + d0[1] * dv[1]) / dist0 if dist0 > 0 else 0.0
+    if dist0 - radius_sum <= TOUCH_TOL:
+        # Touching (or overlapping) now: a contact if they approach right now, or push
+        # (no normal speed but a closing relative acceleration, e.g. a faster-braking body ahead).
+        if radial_speed0 < -APPROACH_TOL:
+            return 0.0
+        if dist0 > 0 and radial_speed0 <= APPROACH_TOL:
+            radial_accel0 = ((dv[0] * dv[0] + dv[1] * dv[1] + d0[0] * da[0] + d0[1] * da[1]) / dist0
+                             - radial_speed0 * radial_speed0 / dist0)
+            if radial_accel0 < -PUSH_ACCEL_TOL:
+                return 0.0
+        return _next_entry_root(d0, dv, da, radius_sum, tau_max, after=0.0)
+    # Cheap rejection: the gap cannot close within the window.
+    speed_bound = math.hypot(dv[0], dv[1]) * tau_max + 0.5 * math.hypot(da[0], da[1]) * tau_max * tau_max
+    if dist0 - radius_sum > speed_bound:
+        return None
+    return _next_entry_root(d0, dv, da, radius_sum, tau_max, after=0.0)
+
+
+def _horner(coeffs: list[float], x: float) -> float:
+    value = 0.0
+    for c in coeffs:
+        value = value * x + c
+    return value
+
+
+def _trim(coeffs: list[float]) -> list[float]:
+    """Drop leading coefficients that vanish relative to the largest (lower the degree)."""
+    scale = max((abs(c) for c in coeffs), default=0.0)
+    if scale == 0.0:
+        return []
+    start = 0
+    while start < len(coeffs) and abs(coeffs[start]) <= 1e-14 * scale:
+        start += 1
+    return coeffs[start:]
+
+
+def _bracketed_root(coeffs: list[float], deriv: list[float], lo: float, hi: float, f_lo: float) -> float:
+    """The single root of a polynomial that changes sign on [lo, hi]: Newton kept inside the bracket."""
+    x = 0.5 * (lo + hi)
+    for _ in range(200):
+        fx = _horner(coeffs, x)
+        if fx == 0.0:
+            return x
+        if (fx < 0.0) == (f_lo < 0.0):
+            lo, f_lo = x, fx
+        else:
+            hi = x
+        slope = _horner(deriv, x)
+        step = x - fx / slope if slope != 0.0 else 0.5 * (lo + hi)
+        if not lo < step < hi:
+            step = 0.5 * (lo + hi)
+        if abs(step - x) <= 1e-15 * (1.0 + abs(x)) or hi - lo <= 1e-15 * (1.0 + abs(x)):
+            return step
+        x = step
+    return x
+
+
+def real_roots(coeffs: list[float], lo: float, hi: float) -> list[float]:
+    """All real roots (sorted) of a polynomial (coefficients highest first) in [lo, hi].
+
+    Exact isolation: the real roots of the derivative split [lo, hi] into monotone
+    pieces (recursively, down to the closed-form quadratic); each piece with a sign
+    change holds exactly one root, found by bracketed Newton to ~1e-15 relative.
+    Roots of even multiplicity (tangencies, no sign change) are not reported.
+    """
+    coeffs = _trim(list(coeffs))
+    degree = len(coeffs) - 1
+    if degree <= 0 or hi < lo:
+        return []
+    if degree == 1:
+        root = -coeffs[1] / coeffs[0]
+        return [root] if lo <= root <= hi else []
+    if degree == 2:
+        a, b, c = coeffs
+        disc = b * b - 4.0 * a * c
+        if disc <= 0.0:
+            return []  # no real root, or a double root (tangency)
+        q = -0.5 * (b + math.copysign(math.sqrt(disc), b))
+        roots = sorted({q / a, c / q} if q != 0.0 else {0.0})
+        return [r for r in roots if lo <= r <= hi]
+    deriv = [c * (degree - i) for i, c in enumerate(coeffs[:-1])]
+    points = [lo] + [r for r in real_roots(deriv, lo, hi) if lo < r < hi] + [hi]
+    roots: list[float] = []
+    f_a = _horner(coeffs, lo)
+    for a, b in zip(points, points[1:]):
+        f_b = _horner(coeffs, b)
+        if f_a == 0.0:
+            roots.append(a)
+        elif f_a * f_b < 0.0:
+            roots.append(_bracketed_root(coeffs, deriv, a, b, f_a))
+        f_a = f_b
+    if f_a == 0.0:
+        roots.append(hi)
+    return sorted(set(roots))
+
+
+def _next_entry_root(d0, dv, da, radius_sum, tau_max, after):
+    coeffs = _quartic_gap_coefficients(d0, dv, da, radius_sum)
+    for tau in real_roots(coeffs, after, tau_max):
+        dx = d0[0] + dv[0] * tau + 0.5 * da[0] * tau * tau
+        dy = d0[1] + dv[1] * tau + 0.5 * da[1] * tau * tau
+        vx, vy = dv[0] + da[0] * tau, dv[1] + da[1] * tau
+        dist = math.hypot(dx, dy)
+        if dist > 0 and (dx * vx + dy * vy) / dist < -APPROACH_TOL:
+            return float(tau)
+    return None
+
+
+def predict_contact(mi: PlanarMotion, mj: PlanarMotion, tau_max: float, tau_flow_end: float | None = None) -> Contact | None:
+    """Earliest approaching contact of two footprints within [0, tau_max] (s), or None.
+
+    tau_flow_end (s, >= tau_max): where the two quadratic flows themselves end
+    (a stop or landing). Roots are isolated on [0, tau_flow_end] and then cut at
+    tau_max, so a contact time does not depend on unrelated window limits
+    (horizon, a removal) down to the last bit.
+    """
+    if tau_max < 0:
+        return None
+    search_end = tau_max if tau_flow_end is None or not math.isfinite(tau_flow_end) else max(tau_flow_end, tau_max)
+    d0 = (mi.position[0] - mj.position[0], mi.position[1] - mj.position[1])
+    dv = (mi.velocity[0] - mj.velocity[0], mi.velocity[1] - mj.velocity[1])
+    da = (mi.acceleration[0] - mj.acceleration[0], mi.acceleration[1] - mj.acceleration[1])
+    fi, fj = mi.footprint, mj.footprint
+    if not _paths_come_close(mi, mj, tau_max, fi.bounding_radius + fj.bounding_radius + TOUCH_TOL):
+        return None
+    if fi.kind == CIRCLE and fj.kind == CIRCLE:
+        tau = circle_contact_time(d0, dv, da, fi.size + fj.size, search_end)
+        if tau is None or tau > tau_max:
+            return None
+        xi, yi, yawi, _, _ = mi.at(tau)
+        xj, yj, yawj, _, _ = mj.at(tau)
+        _, normal, point = footprint_distance(fi, xi, yi, yawi, fj, xj, yj, yawj)
+        return Contact(tau, normal, point)
+    contact = _swept_square_contact(mi, mj, d0, dv, da, search_end)
+    return contact if contact is not None and contact.tau <= tau_max else None
+
+
+def _path_segment(m: PlanarMotion, tau_max: float) -> tuple[float, float, float, float]:
+    """Start and end (x0, y0, x1, y1) of the straight path a body covers within [0, tau_max].
+
+    Every flow moves in a straight line (acceleration parallel to velocity);
+    within one window a sliding body never passes its stop.
+    """
+    (x, y), (vx, vy), (ax, ay) = m.position, m.velocity, m.acceleration
+    speed = math.hypot(vx, vy)
+    if speed == 0.0:
+        return x, y, x, y
+    along = (ax * vx + ay * vy) / speed  # signed acceleration along the motion
+    duration = min(tau_max, speed / -along) if along < 0.0 else tau_max  # no travel past a stop
+    distance = speed * duration + 0.5 * along * duration * duration
+    return x, y, x + vx / speed * distance, y + vy / speed * distance
+
+
+def _point_segment_distance(px, py, x0, y0, x1, y1) -> float:
+    dx, dy = x1 - x0, y1 - y0
+    length2 = dx * dx + dy * dy
+    u = 0.0 if length2 == 0.0 else min(max(((px - x0) * dx + (py - y0) * dy) / length2, 0.0), 1.0)
+    return math.hypot(px - x0 - u * dx, py - y0 - u * dy)
+
+
+def _segments_distance(a, b) -> float:
+    ax0, ay0, ax1, ay1 = a
+    bx0, by0, bx1, by1 = b
+    # Proper crossing: the endpoints of each lie on opposite sides of the other.
+    d1 = (bx1 - bx0) * (ay0 - by0) - (by1 - by0) * (ax0 - bx0)
+    d2 = (bx1 - bx0) * (ay1 - by0) - (by1 - by0) * (ax1 - bx0)
+    d3 = (ax1 - ax0) * (by0 - ay0) - (ay1 - ay0) * (bx0 - ax0)
+    d4 = (ax1 - ax0) * (by1 - ay0) - (ay1 - ay0) * (bx1 - ax0)
+    if d1 * d2 < 0.0 and d3 * d4 < 0.0:
+        return 0.0
+    return min(_point_segment_distance(ax0, ay0, *b), _point_segment_distance(ax1, ay1, *b),
+               _point_segment_distance(bx0, by0, *a), _point_segment_distance(bx1, by1, *a))
+
+
+def _paths_come_close(mi: PlanarMotion, mj: PlanarMotion, tau_max: float, reach: float) -> bool:
+    """False when the two centre paths never come within ``reach`` (m): no contact possible."""
+    return _segments_distance(_path_segment(mi, tau_max), _path_segment(mj, tau_max)) <= reach
+
+
+def _approaching(mi: PlanarMotion, mj: PlanarMotion, tau: float, normal, point) -> bool:
+    """Closing along the normal at the contact point (translation plus spin), or, at
+    zero normal speed, by relative acceleration (pushing)."""
+    xi, yi, _, vxi, vyi = mi.at(tau)
+    xj, yj, _, vxj, vyj = mj.at(tau)
+    wi = mi.yaw_rate + mi.yaw_accel * tau
+    wj = mj.yaw_rate + mj.yaw_accel * tau
+    # Velocity of the contact point on each body: v + w e_z x (c - p).
+    vxi, vyi = vxi - wi * (point[1] - yi), vyi + wi * (point[0] - xi)
+    vxj, vyj = vxj - wj * (point[1] - yj), vyj + wj * (point[0] - xj)
+    normal_speed = (vxi - vxj) * normal[0] + (vyi - vyj) * normal[1]
+    if normal_speed < -APPROACH_TOL:
+        return True
+    normal_accel = ((mi.acceleration[0] - mj.acceleration[0]) * normal[0]
+                    + (mi.acceleration[1] - mj.acceleration[1]) * normal[1])
+    return normal_speed <= APPROACH_TOL and normal_accel < -PUSH_ACCEL_TOL
+
+
+def _swept_square_contact(mi, mj, d0, dv, da, tau_max) -> Contact | None:
+    fi, fj = mi.footprint, mj.footprint
+    spin = abs(mi.yaw_rate) > 0 or abs(mj.yaw_rate) > 0
+    if not spin and dv == (0.0, 0.0) and da == (0.0, 0.0):
+        return None  # rigidly moving together (or both at rest): the gap never changes
+    # The bounding circles contain the footprints, so they touch no later than the footprints.
+    rb = fi.bounding_radius + fj.bounding_radius
+    if math.hypot(*d0) > rb:
+        tau = _bounding_entry(d0, dv, da, rb, tau_max)
+        if tau is None:
+            return None
+    else:
+        tau = 0.0
+    # Upper bound of how fast the gap can shrink: speeds and spins only decrease within a
+    # sliding segment and are constant in flight.
+    closing_bound = (math.hypot(*mi.velocity) + math.hypot(*mj.velocity)
+                     + abs(mi.yaw_rate) * fi.bounding_radius + abs(mj.yaw_rate) * fj.bounding_radius)
+    if closing_bound <= 0:
+        return None
+
+    def gap_at(t):
+        xi, yi, yawi, _, _ = mi.at(t)
+        xj, yj, yawj, _, _ = mj.at(t)
+        return footprint_distance(fi, xi, yi, yawi, fj, xj, yj, yawj)
+
+    gap, normal, point = gap_at(tau)
+    for _ in range(MAX_CA_ITERATIONS):
+        # Touching, or already overlapping (possible only for spinning squares, whose
+        # rotation the central impulse cannot stop): a contact as soon as they close in.
+        if gap <= CA_TOL and _approaching(mi, mj, tau, normal, point):
+            return Contact(tau, normal, point)
+        # |gap| / bound never passes a touch: separated, it cannot close faster; overlapping,
+        # it cannot open faster (so no contact can start before then).
+        step = max(abs(gap) / closing_bound, MIN_CA_STEP)
+        nxt = min(tau + step, tau_max)
+        if nxt <= tau:
+            return None
+        new_gap, new_normal, new_point = gap_at(nxt)
+        if new_gap < 0.0 <= gap:
+            # Stepped through the surface: bisect for the first touch.
+            lo, hi, lo_pack = tau, nxt, (gap, normal, point)
+            while hi - lo > BISECT_TIME_TOL:
+                mid = 0.5 * (lo + hi)
+                pack = gap_at(mid)
+                if pack[0] < 0.0:
+                    hi = mid
+                else:
+                    lo, lo_pack = mid, pack
+            if _approaching(mi, mj, lo, lo_pack[1], lo_pack[2]):
+                return Contact(lo, lo_pack[1], lo_pack[2])
+        if nxt >= tau_max:
+            return None
+        tau, gap, normal, point = nxt, new_gap, new_normal, new_point
+    # Iteration budget spent (long grazing or spinning overlap): ask to be re-checked from here.
+    return Contact(tau, None, point)
+
+
+def _bounding_entry(d0, dv, da, radius_sum, tau_max):
+    """First time (s) the bounding circles touch, approaching or not (None if never in the window)."""
+    speed_bound = math.hypot(*dv) * tau_max + 0.5 * math.hypot(*da) * tau_max * tau_max
+    if math.hypot(*d0) - radius_sum > speed_bound:
+        return None
+    inside = real_roots(_quartic_gap_coefficients(d0, dv, da, radius_sum), 0.0, tau_max)
+    return max(float(inside[0]) - 1e-9, 0.0) if inside else None

@@ -1,0 +1,577 @@
+"""System identification: observations -> a fitted, executable World.
+
+Stages (paper Sec. 3.3 and Appendix A.2, in our words):
+
+1. Candidate collisions from proximity + velocity change (segments.py).
+2. Local closed-form slide fits on every collision-free stretch of every
+   track (local_fit.py): initial position and velocity, friction.
+3. Collision response from the observed velocity jumps: mass ratios per
+   contact-connected component (one reference mass each, absolute scale
+   from a per-material prior) and restitution per colliding pair.
+4. Joint refinement, per contact-connected component, of initial states,
+   friction, mass ratios and restitution against the event-driven rollout
+   with cumulative temporal prefixes (each stage extends the horizon past the
+   next collision and starts from the previous best).
+5. Re-anchoring: the continuation past the observed window starts from the
+   state fitted on each body's last stretch (see docs/identification.md).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field, replace
+from typing import Callable, Mapping, Sequence
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, slide_positions
+from world.identify.observations import ObjectTrack, Observations
+from world.identify.segments import CandidateCollision, find_candidate_collisions
+from world.types import STANDARD_GRAVITY, Body, BodyState, World
+
+MASS_RATIO_BOUNDS = (0.05, 20.0)  # paper, Appendix A: 0.05 < m_i / m_j < 20
+RESTITUTION_BOUNDS = (0.02, 0.99)  # open interval (0, 1), kept off the edges
+
+
+@dataclass(frozen=True)
+class FitConfig:
+    """Knobs of the identification; defaults are the measured best (docs/benchmarks.md)."""
+
+    gravity: float = STANDARD_GRAVITY
+    friction_prior: float = 0.3
+    restitution_prior: float = 0.8
+    # Semantic prior for masses across unconnected components (kg, relative).
+    material_mass_prior: Mapping[str, float] = field(default_factory=lambda: {"rubber": 1.0, "metal": 2.0})
+    joint: bool = True
+    prefix_margin_frames: int = 10
+    max_nfev_per_stage: int = 60
+    # Bodies seen on fewer frames than this get conservative defaults.
+    min_frames: int = 4
+
+
+@dataclass(frozen=True)
+class ObjectFitReport:
+    id: int
+    rmse: float
+    observed_frames: int
+    identified: tuple[str, ...]
+    defaulted: Mapping[str, str]
+    flags: tuple[str, ...] = ()
+
+
+@dataclass(frozen=True)
+class FitReport:
+    objects: tuple[ObjectFitReport, ...]
+    collisions_used: tuple[tuple[int, int, int], ...]  # (id_a, id_b, frame)
+    components: tuple[tuple[int, ...], ...]
+    stages: int
+    function_evaluations: int
+    seconds: float
+    rmse: float
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "objects": [
+                {
+                    "id": o.id,
+                    "rmse": o.rmse,
+                    "observed_frames": o.observed_frames,
+                    "identified": list(o.identified),
+                    "defaulted": dict(o.defaulted),
+                    "flags": list(o.flags),
+                }
+                for o in self.objects
+            ],
+            "collisions_used": [list(c) for c in self.collisions_used],
+            "components": [list(c) for c in self.components],
+            "stages": self.stages,
+            "function_evaluations": self.function_evaluations,
+            "seconds": self.seconds,
+            "rmse": self.rmse,
+        }
+
+
+# --------------------------------------------------------------------------
+# Stage 2: per-track stretches
+# --------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TrackFit:
+    """Slide fits of one track's collision-free stretches, in time order."""
+
+    track: ObjectTrack
+    stretches: tuple[SlideFit, ...]
+    breakpoints: tuple[int, ...]  # frames of the collisions that split the track
+
+
+def _fit_stretches(
+    track: ObjectTrack, breakpoints: Sequence[int], fps: float, config: FitConfig
+) -> TrackFit:
+    """Split at collision frames (dropping one frame each side) and fit each piece."""
+    observed = track.observed
+    edges = [int(track.frames[observed][0]) - 1, *sorted(breakpoints), int(track.frames[observed][-1]) + 1]
+    fits: list[SlideFit] = []
+    for low, high in zip(edges[:-1], edges[1:]):
+        # Frames right next to a contact are blurred by its finite duration
+        # and by the frame quantisation of the contact time.
+        inside = observed & (track.frames > low + (1 if fits else 0)) & (track.frames < high - 1)
+        if inside.sum() == 0:
+            inside = observed & (track.frames > low) & (track.frames < high)
+        if inside.sum() == 0:
+            continue
+        fits.append(
+            fit_slide(
+                track.frames[inside] / fps,
+                track.positions[inside, :2],
+                track.weights[inside],
+                config.gravity,
+                config.friction_prior,
+            )
+        )
+    return TrackFit(track, tuple(fits), tuple(sorted(breakpoints)))
+
+
+def _friction_estimate(fit: TrackFit) -> float | None:
+    """Sample-weighted mean friction of the stretches that showed deceleration."""
+    values = [(s.friction, s.samples) for s in fit.stretches if s.friction_identified and np.hypot(*s.velocity) > 0]
+    if not values:
+        return None
+    mus, counts = zip(*values)
+    return float(np.exp(np.average(np.log(mus), weights=counts)))
+
+
+# --------------------------------------------------------------------------
+# Stage 3: collision response from velocity jumps
+# --------------------------------------------------------------------------
+def _components(ids: Sequence[int], pairs: Sequence[tuple[int, int]]) -> list[tuple[int, ...]]:
+    parent = {i: i for i in ids}
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for a, b in pairs:
+        parent[root(a)] = root(b)
+    groups: dict[int, list[int]] = {}
+    for i in ids:
+        groups.setdefault(root(i), []).append(i)
+    return sorted((tuple(sorted(g)) for g in groups.values()), key=lambda g: g[0])
+
+
+def _response_estimates(
+    candidates: Sequence[CandidateCollision],
+) -> tuple[list[tuple[int, int, float]], dict[tuple[int, int], float]]:
+    """Per candidate: log mass ratio log(m_a / m_b) and restitution, where informative.
+
+    Momentum along the normal n: m_a dv_a.n = -m_b dv_b.n, and the
+    restitution law (v_a' - v_b').n = -e (v_a - v_b).n.
+    """
+    log_ratios: list[tuple[int, int, float]] = []
+    restitution: dict[tuple[int, int], list[float]] = {}
+    for c in candidates:
+        n = c.normal
+        dva, dvb = c.delta_v[0] @ n, c.delta_v[1] @ n
+        # a is pushed back (-n), b forward (+n) in a genuine impulse.
+        if dva < -0.05 and dvb > 0.05:
+            ratio = float(np.clip(-dvb / dva, *MASS_RATIO_BOUNDS))
+            log_ratios.append((c.bodies[0], c.bodies[1], math.log(ratio)))
+        approach = (c.pre[0] - c.pre[1]) @ n
+        if approach > 0.1:
+            e = -((c.post[0] - c.post[1]) @ n) / approach
+            restitution.setdefault(c.bodies, []).append(float(np.clip(e, *RESTITUTION_BOUNDS)))
+    return log_ratios, {pair: float(np.median(v)) for pair, v in restitution.items()}
+
+
+def _solve_masses(
+    component: Sequence[int],
+    log_ratios: Sequence[tuple[int, int, float]],
+    materials: Mapping[int, str | None],
+    prior: Mapping[str, float],
+) -> tuple[dict[int, float], set[int]]:
+    """Least-squares log masses from pairwise log ratios; scale from the material prior.
+
+    Returns masses (kg) and the set of ids whose mass ratio was identified.
+    """
+    index = {body: k for k, body in enumerate(component)}
+    rows, rhs = [], []
+    identified: set[int] = set()
+    for a, b, value in log_ratios:
+        if a in index and b in index:
+            row = np.zeros(len(component))
+            row[index[a]], row[index[b]] = 1.0, -1.0
+            rows.append(row)
+            rhs.append(value)
+            identified.update((a, b))
+    prior_log = np.array([math.log(prior.get(materials.get(body) or "", 1.0)) for body in component])
+    # Weak pull to the prior fixes the free scale (and any unconnected member).
+    weight = 1e-3
+    matrix = np.vstack([*rows, weight * np.eye(len(component))]) if rows else weight * np.eye(len(component))
+    target = np.concatenate([rhs, weight * prior_log]) if rows else weight * prior_log
+    log_mass, *_ = np.linalg.lstsq(matrix, target, rcond=None)
+    # Keep ratios inside the bounds relative to the component's reference (first) body.
+    log_mass = log_mass[0] + np.clip(log_mass - log_mass[0], *np.log(MASS_RATIO_BOUNDS))
+    return {body: float(math.exp(log_mass[index[body]])) for body in component}, identified
+
+
+# --------------------------------------------------------------------------
+# Assembling a World from per-body estimates
+# --------------------------------------------------------------------------
+@dataclass(frozen=True)
+class BodyEstimate:
+    """Current estimate for one body (all SI): entry state and parameters."""
+
+    track: ObjectTrack
+    start_time: float
+    position: np.ndarray  # (2,) metres at start_time
+    velocity: np.ndarray  # (2,) m/s at start_time
+    yaw: float
+    friction: float
+    mass: float
+    restitution: float
+
+
+def _body(estimate: BodyEstimate) -> Body:
+    track = estimate.track
+    return Body(
+        id=track.id,
+        shape=track.shape,
+        initial=BodyState(
+            position=(float(estimate.position[0]), float(estimate.position[1]), track.shape.rest_height),
+            velocity=(float(estimate.velocity[0]), float(estimate.velocity[1]), 0.0),
+            yaw=estimate.yaw,
+            time=estimate.start_time,
+        ),
+        mass=estimate.mass,
+        friction=estimate.friction,
+        restitution=estimate.restitution,
+        color=track.color,
+        material=track.material,
+    )
+
+
+def _world(
+    estimates: Sequence[BodyEstimate],
+    pair_restitution: Mapping[tuple[int, int], float],
+    observations: Observations,
+    config: FitConfig,
+    provenance: Mapping[str, object] | None = None,
+) -> World:
+    return World(
+        bodies=tuple(_body(e) for e in estimates),
+        fps=observations.fps,
+        observed_frames=observations.num_frames,
+        gravity=config.gravity,
+        pair_restitution=tuple((a, b, float(e)) for (a, b), e in sorted(pair_restitution.items())),
+        camera=observations.camera,
+        provenance=dict(provenance or {}),
+    )
+
+
+def _positions(world: World, horizon_frames: int) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+    """Simulated (T, N, 2) plane positions, (T, N) active mask and body order."""
+    from world.rollout import simulate
+
+    rollout = simulate(world, horizon_frames=horizon_frames)
+    return rollout.positions[:, :, :2], rollout.active, rollout.body_ids
+
+
+def _residuals(
+    world: World, tracks: Sequence[ObjectTrack], horizon_frames: int
+) -> np.ndarray:
+    """Weighted position residuals (metres) of every observed frame < horizon.
+
+    Frames where the simulated body is not active count with the observed
+    position against the body's entry position (keeps the vector length fixed).
+    """
+    positions, active, order = _positions(world, horizon_frames)
+    column = {body_id: k for k, body_id in enumerate(order)}
+    parts = []
+    for track in tracks:
+        use = track.observed & (track.frames < horizon_frames)
+        frames = track.frames[use]
+        simulated = positions[frames, column[track.id]]
+        simulated = np.where(active[frames, column[track.id]][:, None], simulated, world.body(track.id).initial.position[:2])
+        parts.append(((simulated - track.positions[use, :2]) * np.sqrt(track.weights[use])[:, None]).ravel())
+    return np.concatenate(parts) if parts else np.zeros(0)
+
+
+# --------------------------------------------------------------------------
+# Stage 4: joint refinement per contact-connected component
+# --------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Packing:
+    """How one component's parameters sit in the optimiser's vector.
+
+    Layout: per body [x, y] (+ [vx, vy] unless the body starts at rest)
+    + [log mu]; then log(m_i / m_ref) for the non-reference bodies; then
+    restitution e per colliding pair. Bounds are box constraints on these
+    transformed values (log keeps mu and masses positive; e stays in (0, 1)).
+    A body seen at rest before its first contact keeps zero initial
+    velocity: the data say so, and a free velocity only lets the optimiser
+    trade it against friction.
+    """
+
+    bodies: tuple[int, ...]
+    pairs: tuple[tuple[int, int], ...]
+    moving: tuple[bool, ...]
+
+    def _body_slots(self) -> list[tuple[int, int]]:
+        slots, offset = [], 0
+        for moving in self.moving:
+            size = 5 if moving else 3
+            slots.append((offset, size))
+            offset += size
+        return slots
+
+    def pack(self, estimates: Mapping[int, BodyEstimate], pair_e: Mapping[tuple[int, int], float]) -> np.ndarray:
+        reference = estimates[self.bodies[0]].mass
+        values: list[float] = []
+        for body, moving in zip(self.bodies, self.moving):
+            e = estimates[body]
+            values += [*e.position, *(e.velocity if moving else ()), math.log(e.friction)]
+        values += [math.log(estimates[b].mass / reference) for b in self.bodies[1:]]
+        values += [pair_e[p] for p in self.pairs]
+        return np.asarray(values, dtype=np.float64)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        low, high = [], []
+        for moving in self.moving:
+            free = 4 if moving else 2
+            low += [-np.inf] * free + [math.log(MU_BOUNDS[0])]
+            high += [np.inf] * free + [math.log(MU_BOUNDS[1])]
+        low += [math.log(MASS_RATIO_BOUNDS[0])] * (len(self.bodies) - 1)
+        high += [math.log(MASS_RATIO_BOUNDS[1])] * (len(self.bodies) - 1)
+        low += [RESTITUTION_BOUNDS[0]] * len(self.pairs)
+        high += [RESTITUTION_BOUNDS[1]] * len(self.pairs)
+        return np.asarray(low), np.asarray(high)
+
+    def owners(self) -> list[tuple[str, object]]:
+        """What each vector entry belongs to: ("body", id), ("mass", id) or ("pair", pair)."""
+        owners: list[tuple[str, object]] = []
+        for body, (_, size) in zip(self.bodies, self._body_slots()):
+            owners += [("body", body)] * size
+        owners += [("mass", body) for body in self.bodies[1:]]
+        owners += [("pair", pair) for pair in self.pairs]
+        return owners
+
+    def scale(self) -> np.ndarray:
+        values: list[float] = []
+        for moving in self.moving:
+            values += [0.05, 0.05] + ([0.3, 0.3] if moving else []) + [0.5]
+        return np.asarray(values + [0.5] * (len(self.bodies) - 1) + [0.2] * len(self.pairs))
+
+    def unpack(
+        self, vector: np.ndarray, estimates: Mapping[int, BodyEstimate]
+    ) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float]]:
+        reference = estimates[self.bodies[0]].mass
+        updated: dict[int, BodyEstimate] = {}
+        for body, moving, (offset, size) in zip(self.bodies, self.moving, self._body_slots()):
+            values = vector[offset : offset + size]
+            updated[body] = replace(
+                estimates[body],
+                position=np.array(values[:2]),
+                velocity=np.array(values[2:4]) if moving else np.zeros(2),
+                friction=float(np.clip(math.exp(values[-1]), *MU_BOUNDS)),
+            )
+        offset = sum(size for _, size in self._body_slots())
+        for k, body in enumerate(self.bodies[1:]):
+            updated[body] = replace(updated[body], mass=reference * math.exp(vector[offset + k]))
+        offset += len(self.bodies) - 1
+        pair_e = {p: float(vector[offset + k]) for k, p in enumerate(self.pairs)}
+        return updated, pair_e
+
+
+def _refine_component(
+    packing: _Packing,
+    estimates: Mapping[int, BodyEstimate],
+    pair_e: Mapping[tuple[int, int], float],
+    pair_frames: Mapping[tuple[int, int], int],
+    horizons: Sequence[int],
+    observations: Observations,
+    config: FitConfig,
+) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float], int]:
+    """Cumulative-prefix least squares over one component.
+
+    A stage fitting frames < H frees only what those frames can inform:
+    bodies seen before H, masses and restitutions of collisions before H.
+    Everything else keeps its current value (a parameter without data
+    would otherwise drift in the optimiser's null space).
+    Returns the updated estimates, pair restitutions and rollout count.
+    """
+    tracks = [estimates[b].track for b in packing.bodies]
+    low, high = packing.bounds()
+    vector = np.clip(packing.pack(estimates, pair_e), low, high)
+    scale = packing.scale()
+    first_seen = {t.id: int(t.frames[t.observed][0]) for t in tracks}
+    owners = packing.owners()
+    evaluations = 0
+
+    for horizon in horizons:
+        seen_pairs = {p for p, frame in pair_frames.items() if frame < horizon}
+        free = np.array(
+            [
+                (kind == "body" and first_seen[owner] < horizon)
+                or (kind == "mass" and any(owner in p for p in seen_pairs))
+                or (kind == "pair" and owner in seen_pairs)
+                for kind, owner in owners
+            ]
+        )
+        if not free.any():
+            continue
+        fixed = vector.copy()
+
+        def fn(sub: np.ndarray, horizon: int = horizon, fixed: np.ndarray = fixed) -> np.ndarray:
+            nonlocal evaluations
+            evaluations += 1
+            full = fixed.copy()
+            full[free] = sub
+            body_estimates, pairs = packing.unpack(full, estimates)
+            world = _world([body_estimates[b] for b in packing.bodies], pairs, observations, config)
+            return _residuals(world, tracks, horizon)
+
+        result = least_squares(
+            fn, vector[free], bounds=(low[free], high[free]), x_scale=scale[free],
+            max_nfev=config.max_nfev_per_stage, method="trf",
+        )
+        vector[free] = result.x
+    updated, pairs = packing.unpack(vector, estimates)
+    return updated, pairs, evaluations
+
+
+# --------------------------------------------------------------------------
+# The entry point
+# --------------------------------------------------------------------------
+def identify(observations: Observations, config: FitConfig = FitConfig()) -> tuple[World, FitReport]:
+    """Fit an executable World to observed tracks.
+
+    Returns the world (bodies carry fitted entry states, friction, masses and
+    restitution; ``provenance`` holds the fit report) and the report.
+    """
+    began = time.perf_counter()
+    fps = observations.fps
+    usable = [t for t in observations.objects if t.observed.sum() > 0]
+    flags: dict[int, list[str]] = {t.id: [] for t in observations.objects}
+    for track in observations.objects:
+        if track.observed.sum() == 0:
+            flags[track.id].append("never observed: left out of the world")
+    candidates = find_candidate_collisions(
+        Observations(tuple(usable), fps, observations.num_frames, observations.camera), config.gravity, config.friction_prior
+    )
+    breakpoints: dict[int, list[int]] = {t.id: [] for t in usable}
+    for c in candidates:
+        for body in c.bodies:
+            breakpoints[body].append(c.frame)
+    track_fits = {t.id: _fit_stretches(t, breakpoints[t.id], fps, config) for t in usable}
+
+    # Friction: own estimate, else the median of similar objects, else the prior.
+    own_friction = {i: _friction_estimate(f) for i, f in track_fits.items()}
+    defaulted: dict[int, dict[str, str]] = {t.id: {} for t in usable}
+
+    def similar_friction(track: ObjectTrack) -> float:
+        for same in (
+            lambda o: o.material == track.material and o.shape.kind == track.shape.kind,
+            lambda o: True,
+        ):
+            values = [own_friction[o.id] for o in usable if o.id != track.id and same(o) and own_friction[o.id] is not None]
+            if values:
+                return float(np.median(values))
+        return config.friction_prior
+
+    log_ratios, pair_e = _response_estimates(candidates)
+    components = _components([t.id for t in usable], [c.bodies for c in candidates])
+    materials = {t.id: t.material for t in usable}
+    masses: dict[int, float] = {}
+    mass_identified: set[int] = set()
+    for component in components:
+        component_masses, identified = _solve_masses(component, log_ratios, materials, config.material_mass_prior)
+        masses.update(component_masses)
+        mass_identified |= identified
+    default_e = float(np.median(list(pair_e.values()))) if pair_e else config.restitution_prior
+
+    estimates: dict[int, BodyEstimate] = {}
+    for track in usable:
+        fit = track_fits[track.id]
+        first = fit.stretches[0]
+        friction = own_friction[track.id]
+        if friction is None:
+            friction = similar_friction(track)
+            defaulted[track.id]["friction"] = "no observed deceleration: median of similar objects"
+        if track.id not in mass_identified:
+            defaulted[track.id]["mass"] = "no informative collision: material prior"
+        if int(track.observed.sum()) < config.min_frames:
+            flags[track.id].append(f"observed on only {int(track.observed.sum())} frames: zero velocity assumed")
+            first = replace(first, velocity=np.zeros(2))
+            defaulted[track.id]["velocity"] = "too few frames: at rest"
+        yaw_known = track.yaw[track.observed]
+        yaw_known = yaw_known[np.isfinite(yaw_known)]
+        estimates[track.id] = BodyEstimate(
+            track=track,
+            start_time=first.start_time,
+            position=first.position,
+            velocity=first.velocity,
+            yaw=float(yaw_known[0]) if yaw_known.size else 0.0,
+            friction=float(np.clip(friction, *MU_BOUNDS)),
+            mass=masses[track.id],
+            restitution=default_e,
+        )
+        if not pair_e and any(track.id in c.bodies for c in candidates):
+            defaulted[track.id]["restitution"] = "no approaching collision observed: prior"
+
+    evaluations = 0
+    stages = 0
+    if config.joint:
+        for component in components:
+            pairs = tuple(sorted({c.bodies for c in candidates if c.bodies[0] in component}))
+            if not pairs:
+                continue  # a lone body's local fit is already its exact closed form
+            for pair in pairs:
+                pair_e.setdefault(pair, default_e)
+            frames = sorted({c.frame for c in candidates if c.bodies[0] in component})
+            horizons = sorted({min(f + config.prefix_margin_frames, observations.num_frames) for f in frames} | {observations.num_frames})
+            packing = _Packing(component, pairs, tuple(bool(np.any(estimates[b].velocity)) for b in component))
+            pair_frames = {}
+            for c in candidates:
+                pair_frames.setdefault(c.bodies, c.frame)
+            updated, fitted_e, used = _refine_component(
+                packing, estimates, pair_e, pair_frames, horizons, observations, config
+            )
+            estimates.update(updated)
+            pair_e.update(fitted_e)
+            evaluations += used
+            stages += len(horizons)
+
+    if pair_e:
+        # Bodies carry the typical restitution for collisions not seen yet.
+        typical_e = float(np.median(list(pair_e.values())))
+        estimates = {i: replace(e, restitution=typical_e) for i, e in estimates.items()}
+    world = _world([estimates[t.id] for t in usable], pair_e, observations, config)
+    residuals = _residuals(world, usable, observations.num_frames) if usable else np.zeros(0)
+    object_reports = []
+    positions, active, order = _positions(world, observations.num_frames) if usable else (None, None, ())
+    column = {b: k for k, b in enumerate(order)}
+    for track in observations.objects:
+        if track.id not in estimates:
+            object_reports.append(ObjectFitReport(track.id, float("nan"), 0, (), {"all": "never observed"}, tuple(flags[track.id])))
+            continue
+        use = track.observed
+        error = positions[track.frames[use], column[track.id]] - track.positions[use, :2]
+        rmse = float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
+        identified = tuple(
+            name for name in ("position", "velocity", "friction", "mass", "restitution") if name not in defaulted[track.id]
+        )
+        object_reports.append(
+            ObjectFitReport(track.id, rmse, int(use.sum()), identified, dict(defaulted[track.id]), tuple(flags[track.id]))
+        )
+    report = FitReport(
+        objects=tuple(object_reports),
+        collisions_used=tuple((c.bodies[0], c.bodies[1], c.frame) for c in candidates),
+        components=tuple(components),
+        stages=stages,
+        function_evaluations=evaluations,
+        seconds=time.perf_counter() - began,
+        rmse=float(np.sqrt(np.mean(residuals**2) * 2)) if residuals.size else 0.0,
+    )
+    return replace(world, provenance={"fit": report.to_dict(), "source": dict(observations.source)}), report

@@ -1,0 +1,210 @@
+"""JSON documents for World and Rollout, validated against ``schemas/*.schema.json``.
+
+Round trips are lossless: floats are written as Python floats (shortest repr,
+exact under ``json``), arrays as nested lists, and every field of the
+dataclasses is present (absent optionals are ``null``).
+"""
+
+from __future__ import annotations
+
+import json
+from functools import lru_cache
+from pathlib import Path
+from typing import Any, Mapping
+
+import numpy as np
+
+from world.types import Body, BodyState, Camera, Edit, Event, Rollout, Shape, World
+
+WORLD_FORMAT = "physmind.world/1"
+ROLLOUT_FORMAT = "physmind.rollout/1"
+SCHEMA_DIR = Path(__file__).resolve().parents[1] / "schemas"
+
+
+@lru_cache(maxsize=None)
+def _validator(name: str):
+    import jsonschema
+
+    schema = json.loads((SCHEMA_DIR / name).read_text())
+    jsonschema.Draft202012Validator.check_schema(schema)
+    return jsonschema.Draft202012Validator(schema)
+
+
+def _validate(document: object, name: str, what: str) -> None:
+    from jsonschema.exceptions import best_match
+
+    errors = list(_validator(name).iter_errors(document))
+    if errors:
+        # best_match descends into oneOf/anyOf to the most specific failing field.
+        first = best_match(errors)
+        where = "/".join(str(p) for p in first.absolute_path) or "(root)"
+        more = f" (and {len(errors) - 1} more)" if len(errors) > 1 else ""
+        raise ValueError(f"{what} document invalid at {where}: {first.message}{more}")
+
+
+def validate_world_dict(document: object) -> None:
+    """Raise ValueError (with the JSON path) unless ``document`` follows world.schema.json."""
+    _validate(document, "world.schema.json", "world")
+
+
+def validate_rollout_dict(document: object) -> None:
+    """Raise ValueError (with the JSON path) unless ``document`` follows rollout.schema.json."""
+    _validate(document, "rollout.schema.json", "rollout")
+
+
+# --------------------------------------------------------------------------- world
+
+def _state_to_dict(state: BodyState) -> dict[str, Any]:
+    return {"position": list(state.position), "velocity": list(state.velocity),
+            "yaw": float(state.yaw), "yaw_rate": float(state.yaw_rate), "time": float(state.time)}
+
+
+def _body_to_dict(body: Body) -> dict[str, Any]:
+    shape = body.shape
+    return {
+        "id": int(body.id),
+        "shape": {"kind": shape.kind, "radius": float(shape.radius), "half_extent": float(shape.half_extent),
+                  "half_height": float(shape.half_height), "mesh_path": shape.mesh_path},
+        "initial": _state_to_dict(body.initial),
+        "mass": float(body.mass), "friction": float(body.friction), "restitution": float(body.restitution),
+        "color": body.color, "material": body.material,
+        "active_until": None if body.active_until is None else float(body.active_until),
+    }
+
+
+def _camera_to_dict(camera: Camera) -> dict[str, Any]:
+    return {"width": int(camera.width), "height": int(camera.height), "fx": float(camera.fx), "fy": float(camera.fy),
+            "cx": float(camera.cx), "cy": float(camera.cy), "position": list(camera.position),
+            "rotation": [list(row) for row in camera.rotation]}
+
+
+def world_to_dict(world: World) -> dict[str, Any]:
+    """The World as a JSON-ready dict following world.schema.json."""
+    return {
+        "format": WORLD_FORMAT,
+        "id": world.id,
+        "fps": float(world.fps),
+        "observed_frames": int(world.observed_frames),
+        "gravity": float(world.gravity),
+        "bodies": [_body_to_dict(b) for b in world.bodies],
+        "pair_restitution": [{"bodies": [int(a), int(b)], "restitution": float(e)} for a, b, e in world.pair_restitution],
+        "camera": None if world.camera is None else _camera_to_dict(world.camera),
+        "provenance": json.loads(json.dumps(dict(world.provenance))),
+    }
+
+
+def world_from_dict(document: Mapping[str, Any]) -> World:
+    """Parse and validate a world document; ValueError names the offending field."""
+    validate_world_dict(document)
+    bodies = []
+    for index, b in enumerate(document["bodies"]):
+        try:
+            s, st = b["shape"], b["initial"]
+            bodies.append(Body(
+                id=b["id"],
+                shape=Shape(s["kind"], radius=s["radius"], half_extent=s["half_extent"],
+                            half_height=s["half_height"], mesh_path=s["mesh_path"]),
+                initial=BodyState(tuple(st["position"]), tuple(st["velocity"]), st["yaw"], st["yaw_rate"], st["time"]),
+                mass=b["mass"], friction=b["friction"], restitution=b["restitution"],
+                color=b["color"], material=b["material"], active_until=b["active_until"]))
+        except ValueError as error:
+            raise ValueError(f"bodies[{index}]: {error}") from None
+    cam = document["camera"]
+    camera = None if cam is None else Camera(
+        width=cam["width"], height=cam["height"], fx=cam["fx"], fy=cam["fy"], cx=cam["cx"], cy=cam["cy"],
+        position=tuple(cam["position"]), rotation=tuple(tuple(row) for row in cam["rotation"]))
+    return World(
+        bodies=tuple(bodies),
+        fps=document["fps"],
+        observed_frames=document["observed_frames"],
+        gravity=document["gravity"],
+        pair_restitution=tuple((p["bodies"][0], p["bodies"][1], p["restitution"]) for p in document["pair_restitution"]),
+        camera=camera,
+        id=document["id"],
+        provenance=json.loads(json.dumps(document["provenance"])),
+    )
+
+
+# --------------------------------------------------------------------------- rollout
+
+def edit_to_dict(edit: Edit) -> dict[str, Any]:
+    value = edit.value
+    if isinstance(value, (tuple, list, np.ndarray)):
+        value = [float(v) for v in value]
+    elif value is not None:
+        value = float(value)
+    return {"kind": edit.kind, "body": int(edit.body), "value": value,
+            "other": None if edit.other is None else int(edit.other),
+            "from_frame": None if edit.from_frame is None else int(edit.from_frame)}
+
+
+def edit_from_dict(document: Mapping[str, Any]) -> Edit:
+    value = document.get("value")
+    if isinstance(value, list):
+        value = tuple(value)
+    return Edit(kind=document["kind"], body=document["body"], value=value,
+                other=document.get("other"), from_frame=document.get("from_frame"))
+
+
+def event_to_dict(event: Event) -> dict[str, Any]:
+    return {"kind": event.kind, "bodies": [int(b) for b in event.bodies], "time": float(event.time),
+            "frame": int(event.frame), "position": [float(v) for v in event.position], "impulse": float(event.impulse)}
+
+
+def event_from_dict(document: Mapping[str, Any]) -> Event:
+    return Event(kind=document["kind"], bodies=tuple(document["bodies"]), time=document["time"],
+                 frame=document["frame"], position=tuple(document["position"]), impulse=document["impulse"])
+
+
+def rollout_to_dict(rollout: Rollout) -> dict[str, Any]:
+    """The Rollout as a JSON-ready dict following rollout.schema.json."""
+    return {
+        "format": ROLLOUT_FORMAT,
+        "id": rollout.id,
+        "world_id": rollout.world_id,
+        "edits": [edit_to_dict(e) for e in rollout.edits],
+        "fps": float(rollout.fps),
+        "observed_frames": int(rollout.observed_frames),
+        "horizon_frames": int(rollout.horizon_frames),
+        "body_ids": [int(b) for b in rollout.body_ids],
+        "times": np.asarray(rollout.times, dtype=float).tolist(),
+        "positions": np.asarray(rollout.positions, dtype=float).tolist(),
+        "velocities": np.asarray(rollout.velocities, dtype=float).tolist(),
+        "yaw": np.asarray(rollout.yaw, dtype=float).tolist(),
+        "active": np.asarray(rollout.active, dtype=bool).tolist(),
+        "visible": np.asarray(rollout.visible, dtype=bool).tolist(),
+        "events": [event_to_dict(e) for e in rollout.events],
+        "notes": list(rollout.notes),
+    }
+
+
+def rollout_from_dict(document: Mapping[str, Any]) -> Rollout:
+    """Parse and validate a rollout document; ValueError names the offending field."""
+    validate_rollout_dict(document)
+    n_frames, n_bodies = document["horizon_frames"], len(document["body_ids"])
+
+    def array(name: str, dtype, tail: tuple[int, ...]) -> np.ndarray:
+        values = np.asarray(document[name], dtype=dtype)
+        expected = (n_frames, n_bodies) + tail if name != "times" else (n_frames,)
+        if values.size == 0:
+            values = values.reshape(expected)
+        if values.shape != expected:
+            raise ValueError(f"rollout document invalid at {name}: expected shape {expected}, got {values.shape}")
+        return values
+
+    return Rollout(
+        id=document["id"],
+        world_id=document["world_id"],
+        edits=tuple(edit_from_dict(e) for e in document["edits"]),
+        fps=document["fps"],
+        observed_frames=document["observed_frames"],
+        body_ids=tuple(document["body_ids"]),
+        times=array("times", float, ()),
+        positions=array("positions", float, (3,)),
+        velocities=array("velocities", float, (3,)),
+        yaw=array("yaw", float, ()),
+        active=array("active", bool, ()),
+        visible=array("visible", bool, ()),
+        events=tuple(event_from_dict(e) for e in document["events"]),
+        notes=tuple(document["notes"]),
+    )

@@ -1,0 +1,395 @@
+"""Event-driven execution of a world: closed-form segments, exact events, impulses.
+
+``simulate`` advances from event to event (entry, removal, Coulomb stop,
+landing, pairwise contact), applies each, and keeps every body's piecewise
+closed-form flow. Per-frame records are sampled only at the end, vectorised,
+so the frame rate never changes the trajectory.
+
+A rollout starts from the bodies' initial states (``Body.initial``: position,
+velocity, yaw, yaw rate at ``initial.time``); bodies with a later
+``initial.time`` enter the world then. Time 0 is frame 0.
+
+Collision response (paper eq. 3): ``j = -(1 + e) (v_i - v_j).n / (1/m_i + 1/m_j)``
+along the footprint contact normal ``n`` (from j to i), applied to the linear
+velocities only (frictionless contact between bodies, no torque). The pair's
+restitution is ``World.pair_restitution`` if given, else ``min(e_i, e_j)``.
+Spin: the model has no moments of inertia, so a collision stops the yaw rate
+of both bodies (otherwise a spinning cube would keep sweeping its corners
+into its partner). A spinning cube whose corner reaches a body while the
+centres separate makes a collision with zero impulse that only stops the spin.
+
+Zeno guard: a pair that collides again with a normal approach speed below
+``SETTLE_SPEED``, or for the ``ZENO_REPEATS + 1``-th time within ``ZENO_INTERVAL``, is in
+sustained (pushing) contact, which a chain of impulses would resolve only in
+infinitely many events. It is settled instead: the pair, together with every
+body touching it that it collided with within ``ZENO_INTERVAL`` (a jammed
+cluster, e.g. a body squeezed between two others), takes the cluster's common
+momentum velocity (perfectly inelastic, energy never increases) and the
+mass-weighted friction ``sum(m_k mu_k) / sum(m_k)``, so they slide together
+and stop together. ``MAX_EVENTS`` caps the loop in any case; hitting
+it is recorded in ``Rollout.notes``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Sequence
+
+import numpy as np
+
+from world.camera import footprint_visible, view_events
+from world.contacts import APPROACH_TOL, CIRCLE, SQUARE, Footprint, PlanarMotion, footprint_distance, predict_contact
+from world.edits import apply_edits
+from world.flows import FLIGHT, REST, Segment, evaluate_segments, inactive_segment, start_segment
+from world.types import Body, Edit, Event, Rollout, World
+
+MAX_EVENTS = 20_000
+SETTLE_SPEED = 1e-3  # m/s
+ZENO_INTERVAL = 1e-3  # s
+ZENO_REPEATS = 3  # collisions of one pair within ZENO_INTERVAL before it is settled
+INITIAL_OVERLAP_TOL = 1e-6  # m: bodies entering together may overlap at most this much
+HORIZON_FACTOR = 1.2
+CLUSTER_GAP = 1e-6  # m: bodies this close belong to the same jammed cluster when settling
+
+
+def default_horizon(world: World) -> int:
+    """Observed frames plus 20 % (at least one frame)."""
+    return max(1, math.ceil(world.observed_frames * HORIZON_FACTOR - 1e-9))
+
+
+def footprint_of(body: Body) -> Footprint:
+    return Footprint(SQUARE, body.shape.half_extent) if body.shape.kind == "cube" else Footprint(CIRCLE, body.shape.radius)
+
+
+def pair_restitution(world: World) -> dict[tuple[int, int], float]:
+    """Pair table {(id_a, id_b) sorted: e} from the world's overrides."""
+    return {(min(a, b), max(a, b)): float(e) for a, b, e in world.pair_restitution}
+
+
+def frame_of(time: float, fps: float) -> int:
+    """Frame index of a time (s): round half up of ``time * fps``."""
+    return int(math.floor(time * fps + 0.5))
+
+
+def _validate_initial_overlaps(world: World) -> None:
+    bodies = world.bodies
+    for a in range(len(bodies)):
+        for b in range(a + 1, len(bodies)):
+            ba, bb = bodies[a], bodies[b]
+            if ba.initial.time != bb.initial.time:
+                continue
+            gap, _, _ = footprint_distance(
+                footprint_of(ba), ba.initial.position[0], ba.initial.position[1], ba.initial.yaw,
+                footprint_of(bb), bb.initial.position[0], bb.initial.position[1], bb.initial.yaw)
+            if gap < -INITIAL_OVERLAP_TOL:
+                raise ValueError(
+                    f"bodies[{b}].initial.position: body {bb.id} overlaps body {ba.id} by {-gap:.3g} m "
+                    f"at t={ba.initial.time:g} s (tolerance {INITIAL_OVERLAP_TOL:g} m)")
+
+
+class _Engine:
+    """Mutable event-loop state; private to ``simulate`` (the public API stays pure)."""
+
+    def __init__(self, world: World, t_end: float) -> None:
+        self.world = world
+        self.t_end = t_end
+        self.g = world.gravity
+        self.bodies = world.bodies
+        n = len(self.bodies)
+        self.footprints = [footprint_of(b) for b in self.bodies]
+        self.pair_e = pair_restitution(world)
+        self.segments: list[Segment | None] = [None] * n
+        self.logs: list[list[Segment]] = [[] for _ in range(n)]
+        self.status = ["pending"] * n
+        self.friction = [b.friction for b in self.bodies]
+        self.pred: dict[tuple[int, int], tuple[float, object]] = {}
+        self.last_collision: dict[tuple[int, int], list[float]] = {}
+        self.events: list[tuple[float, int, Event]] = []
+        self.notes: list[str] = []
+        self.event_count = 0
+        self.contacts_enabled = True
+
+    # ------------------------------------------------------------------ body events
+    def _body_next(self, k: int) -> float:
+        body = self.bodies[k]
+        if self.status[k] == "pending":
+            return body.initial.time
+        if self.status[k] == "gone":
+            return math.inf
+        until = body.active_until if body.active_until is not None else math.inf
+        return min(self.segments[k].end, until)
+
+    def _set_segment(self, k: int, t: float, position, velocity, yaw: float, yaw_rate: float) -> None:
+        body = self.bodies[k]
+        seg = start_segment(t, position, velocity, yaw, yaw_rate, body.shape.rest_height, self.friction[k], self.g)
+        self.segments[k] = seg
+        self.logs[k].append(seg)
+
+    def _handle_body_event(self, k: int, t: float) -> None:
+        body = self.bodies[k]
+        if self.status[k] == "pending":
+            self.status[k] = "active"
+            init = body.initial
+            self._set_segment(k, t, init.position, init.velocity, init.yaw, init.yaw_rate)
+            return
+        seg = self.segments[k]
+        position, velocity, yaw, yaw_rate = seg.state_at(t)
+        if body.active_until is not None and t >= body.active_until:
+            self.status[k] = "gone"
+            self.segments[k] = None
+            self.logs[k].append(inactive_segment(t, position, yaw))
+            return
+        if seg.mode == FLIGHT:  # landing: plastic impact with the plane (vz -> 0), then slide
+            self.friction[k] = body.friction
+            self._set_segment(k, t, (position[0], position[1], body.shape.rest_height),
+                              (velocity[0], velocity[1], 0.0), yaw, yaw_rate)
+            return
+        # Coulomb stop: exactly at rest from now on.
+        self._set_segment(k, t, position, (0.0, 0.0, 0.0), yaw, 0.0)
+        self._record(t, Event("stop", (body.id,), t, frame_of(t, self.world.fps), tuple(position), 0.0))
+
+    # ------------------------------------------------------------------ contacts
+    def _motion(self, k: int, t: float) -> PlanarMotion:
+        seg = self.segments[k]
+        p, v, yaw, w = seg.state_at(t)
+        tau_end = seg.end - t
+        # A sliding segment's yaw decelerates; keep its acceleration (valid until seg.end).
+        return PlanarMotion(self.footprints[k], (p[0], p[1]), (v[0], v[1]),
+                            (seg.acceleration[0], seg.acceleration[1]), yaw, w,
+                            seg.yaw_accel if tau_end > 0 else 0.0)
+
+    def _predict(self, a: int, b: int, t: float) -> None:
+        key = (a, b)
+        self.pred.pop(key, None)
+        if not self.contacts_enabled or self.status[a] != "active" or self.status[b] != "active":
+            return
+        sa, sb = self.segments[a], self.segments[b]
+        if sa.mode == REST and sb.mode == REST:
+            return
+        window_end = min(self._body_next(a), self._body_next(b), self.t_end)
+        if window_end < t:
+            return
+        flow_end = min(sa.end, sb.end)
+        contact = predict_contact(self._motion(a, t), self._motion(b, t), window_end - t,
+                                  flow_end - t if math.isfinite(flow_end) else None)
+        if contact is not None:
+            self.pred[key] = (t + contact.tau, contact)
+
+    def _refresh_pairs(self, changed: Sequence[int], t: float) -> None:
+        n = len(self.bodies)
+        done = set()
+        for k in changed:
+            for other in range(n):
+                if other == k:
+                    continue
+                key = (min(k, other), max(k, other))
+                if key not in done:
+                    done.add(key)
+                    self._predict(key[0], key[1], t)
+
+    def _restitution(self, a: int, b: int) -> float:
+        ia, ib = self.bodies[a].id, self.bodies[b].id
+        return self.pair_e.get((min(ia, ib), max(ia, ib)),
+                               min(self.bodies[a].restitution, self.bodies[b].restitution))
+
+    def _collide(self, a: int, b: int, t: float, contact) -> list[int]:
+        body_a, body_b = self.bodies[a], self.bodies[b]
+        pa, va, yaw_a, wa = self.segments[a].state_at(t)
+        pb, vb, yaw_b, wb = self.segments[b].state_at(t)
+        nx, ny = contact.normal  # from b to a
+        vn = (va[0] - vb[0]) * nx + (va[1] - vb[1]) * ny
+        ids = tuple(sorted((body_a.id, body_b.id)))
+        height = 0.5 * (pa[2] + pb[2])
+        if vn > APPROACH_TOL:
+            if wa == 0.0 and wb == 0.0:  # separating after all (rounding): nothing to do
+                return [a, b]
+            # A spinning square swept into the other while the centres separate: the
+            # central impulse cannot act, so the impact only stops the spin.
+            self._set_segment(a, t, pa, va, yaw_a, 0.0)
+            self._set_segment(b, t, pb, vb, yaw_b, 0.0)
+            self._record(t, Event("collision", ids, t, frame_of(t, self.world.fps),
+                                  (contact.point[0], contact.point[1], height), 0.0))
+            return [a, b]
+        ma, mb = body_a.mass, body_b.mass
+        key = (a, b)
+        recent = [tc for tc in self.last_collision.get(key, []) if t - tc < ZENO_INTERVAL]
+        settle = -vn < SETTLE_SPEED or len(recent) >= ZENO_REPEATS
+        self.last_collision[key] = recent + [t]
+        if settle:
+            members = self._touching_cluster(a, b, t)
+            impulse = self._settle(members, t, a)
+        else:
+            members = [a, b]
+            e = self._restitution(a, b)
+            j = -(1.0 + e) * vn / (1.0 / ma + 1.0 / mb)
+            impulse = j
+            new_va = (va[0] + j / ma * nx, va[1] + j / ma * ny, va[2])
+            new_vb = (vb[0] - j / mb * nx, vb[1] - j / mb * ny, vb[2])
+            self.friction[a], self.friction[b] = body_a.friction, body_b.friction
+            # Collisions stop the spin (the model has no angular impulse; see module doc).
+            self._set_segment(a, t, pa, new_va, yaw_a, 0.0)
+            self._set_segment(b, t, pb, new_vb, yaw_b, 0.0)
+        self._record(t, Event("collision", ids, t, frame_of(t, self.world.fps),
+                              (contact.point[0], contact.point[1], height), float(impulse)))
+        return members
+
+    def _touching_cluster(self, a: int, b: int, t: float) -> list[int]:
+        """a, b and every body linked to them by a touching pair that collided within ZENO_INTERVAL."""
+        members, frontier = [a, b], [a, b]
+        while frontier:
+            k = frontier.pop()
+            for other in range(len(self.bodies)):
+                if other in members or self.status[other] != "active":
+                    continue
+                key = (min(k, other), max(k, other))
+                if not any(t - tc < ZENO_INTERVAL for tc in self.last_collision.get(key, ())):
+                    continue
+                pk, _, yk, _ = self.segments[k].state_at(t)
+                po, _, yo, _ = self.segments[other].state_at(t)
+                gap, _, _ = footprint_distance(self.footprints[k], pk[0], pk[1], yk,
+                                               self.footprints[other], po[0], po[1], yo)
+                if gap <= CLUSTER_GAP:
+                    members.append(other)
+                    frontier.append(other)
+        return members
+
+    def _settle(self, members: list[int], t: float, reference: int) -> float:
+        """Give a jammed cluster its common momentum velocity and mass-weighted friction.
+
+        Perfectly inelastic (kinetic energy can only drop), momentum conserved.
+        Returns the impulse magnitude (N s) received by ``reference``.
+        """
+        states = {k: self.segments[k].state_at(t) for k in members}
+        masses = {k: self.bodies[k].mass for k in members}
+        total = sum(masses.values())
+        vx = sum(masses[k] * states[k][1][0] for k in members) / total
+        vy = sum(masses[k] * states[k][1][1] for k in members) / total
+        shared = sum(masses[k] * self.bodies[k].friction for k in members) / total
+        ref_v = states[reference][1]
+        impulse = masses[reference] * math.hypot(vx - ref_v[0], vy - ref_v[1])
+        for k in members:
+            position, velocity, yaw, yaw_rate = states[k]
+            self.friction[k] = shared
+            self._set_segment(k, t, position, (vx, vy, velocity[2]), yaw, 0.0)
+        return impulse
+
+    def _record(self, t: float, event: Event) -> None:
+        self.events.append((t, len(self.events), event))
+
+    # ------------------------------------------------------------------ loop
+    def run(self) -> None:
+        n = len(self.bodies)
+        t = 0.0
+        # Bodies present at t = 0 start together; later ones enter through body events.
+        starters = [k for k in range(n) if self.bodies[k].initial.time <= 0.0]
+        for k in starters:
+            self._handle_body_event(k, 0.0)
+        self._refresh_pairs(starters, 0.0)
+        while True:
+            body_k, body_t = -1, math.inf
+            for k in range(n):
+                tk = self._body_next(k)
+                if tk < body_t:
+                    body_k, body_t = k, tk
+            pair_key, pair_t = None, math.inf
+            for key, (tp, _) in self.pred.items():
+                if tp < pair_t:
+                    pair_key, pair_t = key, tp
+            t_next = min(body_t, pair_t)
+            if t_next > self.t_end:
+                break
+            t = t_next
+            self.event_count += 1
+            if self.event_count > MAX_EVENTS and self.contacts_enabled:
+                self.contacts_enabled = False
+                self.pred.clear()
+                self.notes.append(f"event cap {MAX_EVENTS} reached at t={t:.6g} s; later contacts ignored")
+                continue
+            if body_t <= pair_t:  # body events first on ties (a stop changes the pair flows)
+                self._handle_body_event(body_k, t)
+                self._refresh_pairs([body_k], t)
+            else:
+                a, b = pair_key
+                contact = self.pred[pair_key][1]
+                if contact.normal is None:  # search budget ran out: continue the search from here
+                    self._predict(a, b, t)
+                    continue
+                self._refresh_pairs(self._collide(a, b, t, contact), t)
+        for k in range(n):
+            if not self.logs[k]:  # never entered within the horizon
+                init = self.bodies[k].initial
+                self.logs[k].append(inactive_segment(init.time, init.position, init.yaw))
+
+
+def simulate(
+    world: World,
+    edits: Sequence[Edit] = (),
+    horizon_frames: int | None = None,
+    rollout_id: str = "base",
+) -> Rollout:
+    """Execute ``world`` after ``edits`` for ``horizon_frames`` frames at ``world.fps``.
+
+    horizon_frames: default ``ceil(observed_frames * 1.2)``. Returns a Rollout with
+    per-frame positions (T, N, 3) m, velocities (T, N, 3) m/s, yaw (T, N) rad,
+    active/visible (T, N) bool and the events (collision, stop, in, out) in time
+    order. Raises ValueError (naming the field) for invalid input.
+    """
+    if not isinstance(world, World):
+        raise ValueError(f"world: expected a world.types.World, got {type(world).__name__}")
+    edits = tuple(edits)
+    for position, edit in enumerate(edits):
+        if not isinstance(edit, Edit):
+            raise ValueError(f"edits[{position}]: expected a world.types.Edit, got {type(edit).__name__}")
+    if horizon_frames is None:
+        horizon_frames = default_horizon(world)
+    if isinstance(horizon_frames, bool) or not isinstance(horizon_frames, (int, np.integer)) or horizon_frames < 1:
+        raise ValueError(f"horizon_frames: expected an integer >= 1, got {horizon_frames!r}")
+    if horizon_frames > 1_000_000:
+        raise ValueError(f"horizon_frames: at most 1000000 frames, got {horizon_frames}")
+    if not isinstance(rollout_id, str) or not rollout_id:
+        raise ValueError(f"rollout_id: expected a non-empty string, got {rollout_id!r}")
+    edited = apply_edits(world, edits)
+    _validate_initial_overlaps(edited)
+
+    fps = edited.fps
+    horizon_frames = int(horizon_frames)
+    engine = _Engine(edited, t_end=(horizon_frames - 1) / fps)
+    engine.run()
+
+    times = np.arange(horizon_frames, dtype=float) / fps
+    n = len(edited.bodies)
+    positions = np.zeros((horizon_frames, n, 3))
+    velocities = np.zeros((horizon_frames, n, 3))
+    yaw = np.zeros((horizon_frames, n))
+    active = np.zeros((horizon_frames, n), dtype=bool)
+    visible = np.zeros((horizon_frames, n), dtype=bool)
+    for k, body in enumerate(edited.bodies):
+        p, v, y, act = evaluate_segments(engine.logs[k], times)
+        positions[:, k], velocities[:, k], yaw[:, k], active[:, k] = p, v, y, act
+        if edited.camera is None:
+            visible[:, k] = act
+        else:
+            visible[:, k] = act & footprint_visible(edited.camera, body.shape, p, y)
+
+    events = [e for _, _, e in sorted(engine.events, key=lambda item: (item[0], item[1]))]
+    for kind, k, frame in view_events(visible, active):
+        body = edited.bodies[k]
+        events.append(Event(kind, (body.id,), frame / fps, frame, tuple(float(x) for x in positions[frame, k]), 0.0))
+    events.sort(key=lambda e: (e.time, {"collision": 0, "stop": 1, "in": 2, "out": 3}[e.kind]))
+
+    return Rollout(
+        id=rollout_id,
+        world_id=world.id,
+        edits=edits,
+        fps=fps,
+        observed_frames=edited.observed_frames,
+        body_ids=edited.body_ids,
+        times=times,
+        positions=positions,
+        velocities=velocities,
+        yaw=yaw,
+        active=active,
+        visible=visible,
+        events=tuple(events),
+        notes=tuple(engine.notes),
+    )

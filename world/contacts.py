@@ -191,19 +191,33 @@ def circle_contact_time(
     if dist0 - radius_sum <= TOUCH_TOL:
         # Touching (or overlapping) now: a contact if they approach right now, or push
         # (no normal speed but a closing relative acceleration, e.g. a faster-braking body ahead).
-        if radial_speed0 < -APPROACH_TOL:
+        radial_accel0 = ((dv[0] * dv[0] + dv[1] * dv[1] + d0[0] * da[0] + d0[1] * da[1]) / dist0
+                         - radial_speed0 * radial_speed0 / dist0) if dist0 > 0 else 0.0
+        if closing(radial_speed0, radial_accel0):
             return 0.0
-        if dist0 > 0 and radial_speed0 <= APPROACH_TOL:
-            radial_accel0 = ((dv[0] * dv[0] + dv[1] * dv[1] + d0[0] * da[0] + d0[1] * da[1]) / dist0
-                             - radial_speed0 * radial_speed0 / dist0)
-            if radial_accel0 < -PUSH_ACCEL_TOL:
-                return 0.0
         return _next_entry_root(d0, dv, da, radius_sum, tau_max, after=0.0)
     # Cheap rejection: the gap cannot close within the window.
     speed_bound = math.hypot(dv[0], dv[1]) * tau_max + 0.5 * math.hypot(da[0], da[1]) * tau_max * tau_max
     if dist0 - radius_sum > speed_bound:
         return None
     return _next_entry_root(d0, dv, da, radius_sum, tau_max, after=0.0)
+
+
+def closing(normal_speed: float, normal_accel: float) -> bool:
+    """Whether two touching bodies close in: relative normal speed (m/s, < 0 approaching)
+    and acceleration (m/s^2) along the contact normal.
+
+    True when they approach, or when the relative acceleration closes them before
+    they open a gap larger than TOUCH_TOL (a pushing contact, e.g. a faster-braking
+    body ahead, or the rounding-level bounce of e ~ 0).
+    """
+    if normal_speed < -APPROACH_TOL:
+        return True
+    if normal_accel >= -PUSH_ACCEL_TOL:
+        return False
+    if normal_speed <= APPROACH_TOL:
+        return True
+    return normal_speed * normal_speed / (-2.0 * normal_accel) <= TOUCH_TOL
 
 
 def _horner(coeffs: list[float], x: float) -> float:
@@ -382,7 +396,7 @@ def _approaching(mi: PlanarMotion, mj: PlanarMotion, tau: float, normal, point) 
         return True
     normal_accel = ((mi.acceleration[0] - mj.acceleration[0]) * normal[0]
                     + (mi.acceleration[1] - mj.acceleration[1]) * normal[1])
-    return normal_speed <= APPROACH_TOL and normal_accel < -PUSH_ACCEL_TOL
+    return closing(normal_speed, normal_accel)
 
 
 def _swept_square_contact(mi, mj, d0, dv, da, tau_max) -> Contact | None:

@@ -59,7 +59,10 @@ def remove_object(world: World, body_id: int, from_frame: int | None = None) -> 
     if from_frame <= first:
         bodies = world.bodies[:index] + world.bodies[index + 1:]
         pairs = tuple(p for p in world.pair_restitution if body_id not in (p[0], p[1]))
-        return dataclasses.replace(world, bodies=bodies, pair_restitution=pairs)
+        anchor = world.anchor
+        if anchor is not None:
+            anchor = dataclasses.replace(anchor, states=tuple(s for s in anchor.states if s[0] != body_id))
+        return dataclasses.replace(world, bodies=bodies, pair_restitution=pairs, anchor=anchor)
     until = from_frame / world.fps
     if body.active_until is not None and body.active_until <= until:
         return clone(world)  # already gone by then

@@ -14,7 +14,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from world.types import Body, BodyState, Camera, Edit, Event, Rollout, Shape, World
+from world.types import Anchor, Body, BodyState, Camera, Edit, Event, Rollout, Shape, World
 
 WORLD_FORMAT = "physmind.world/1"
 ROLLOUT_FORMAT = "physmind.rollout/1"
@@ -90,6 +90,10 @@ def world_to_dict(world: World) -> dict[str, Any]:
         "pair_restitution": [{"bodies": [int(a), int(b)], "restitution": float(e)} for a, b, e in world.pair_restitution],
         "camera": None if world.camera is None else _camera_to_dict(world.camera),
         "provenance": json.loads(json.dumps(dict(world.provenance))),
+        "anchor": None if world.anchor is None else {
+            "time": float(world.anchor.time),
+            "states": [{"body": int(i), "state": _state_to_dict(st)} for i, st in world.anchor.states],
+        },
     }
 
 
@@ -122,7 +126,21 @@ def world_from_dict(document: Mapping[str, Any]) -> World:
         camera=camera,
         id=document["id"],
         provenance=json.loads(json.dumps(document["provenance"])),
+        anchor=_anchor_from_dict(document.get("anchor")),
     )
+
+
+def _anchor_from_dict(anchor: Mapping[str, Any] | None) -> Anchor | None:
+    if anchor is None:
+        return None
+    states = []
+    for index, entry in enumerate(anchor["states"]):
+        st = entry["state"]
+        try:
+            states.append((entry["body"], BodyState(tuple(st["position"]), tuple(st["velocity"]), st["yaw"], st["yaw_rate"], st["time"])))
+        except ValueError as error:
+            raise ValueError(f"anchor.states[{index}]: {error}") from None
+    return Anchor(anchor["time"], tuple(states))
 
 
 # --------------------------------------------------------------------------- rollout

@@ -38,7 +38,7 @@ from typing import Sequence
 import numpy as np
 
 from world.camera import footprint_visible, view_events
-from world.contacts import APPROACH_TOL, CIRCLE, SQUARE, Footprint, PlanarMotion, footprint_distance, predict_contact
+from world.contacts import CIRCLE, SQUARE, Footprint, PlanarMotion, closing, footprint_distance, predict_contact
 from world.edits import apply_edits
 from world.flows import FLIGHT, REST, Segment, evaluate_segments, inactive_segment, start_segment
 from world.types import Body, Edit, Event, Rollout, World
@@ -49,6 +49,9 @@ ZENO_INTERVAL = 1e-3  # s
 ZENO_REPEATS = 3  # collisions of one pair within ZENO_INTERVAL before it is settled
 INITIAL_OVERLAP_TOL = 1e-6  # m: bodies entering together may overlap at most this much
 HORIZON_FACTOR = 1.2
+# Collisions of one pair closer than this (s) are one contact episode, as the
+# scene generator's ground truth counts them (synth: 0.2 s debounce).
+CONTACT_EPISODE_GAP = 0.2
 CLUSTER_GAP = 1e-6  # m: bodies this close belong to the same jammed cluster when settling
 
 
@@ -90,9 +93,10 @@ def _validate_initial_overlaps(world: World) -> None:
 class _Engine:
     """Mutable event-loop state; private to ``simulate`` (the public API stays pure)."""
 
-    def __init__(self, world: World, t_end: float) -> None:
+    def __init__(self, world: World, t_end: float, use_anchor: bool = False) -> None:
         self.world = world
         self.t_end = t_end
+        self.anchor = world.anchor if use_anchor else None
         self.g = world.gravity
         self.bodies = world.bodies
         n = len(self.bodies)
@@ -200,11 +204,16 @@ class _Engine:
         vn = (va[0] - vb[0]) * nx + (va[1] - vb[1]) * ny
         ids = tuple(sorted((body_a.id, body_b.id)))
         height = 0.5 * (pa[2] + pb[2])
-        if vn > APPROACH_TOL:
-            if wa == 0.0 and wb == 0.0:  # separating after all (rounding): nothing to do
-                return [a, b]
-            # A spinning square swept into the other while the centres separate: the
-            # central impulse cannot act, so the impact only stops the spin.
+        sa, sb = self.segments[a], self.segments[b]
+        an = (sa.acceleration[0] - sb.acceleration[0]) * nx + (sa.acceleration[1] - sb.acceleration[1]) * ny
+        if not closing(vn, an):
+            if wa == 0.0 and wb == 0.0:
+                # Nothing to resolve (rounding): keep both flows, and do not predict this
+                # pair again until one of them changes (no zero-time loop).
+                self.pred.pop((a, b), None)
+                return []
+            # A spinning square swept into the other while the centres do not close in:
+            # the central impulse cannot act, so the impact only stops the spin.
             self._set_segment(a, t, pa, va, yaw_a, 0.0)
             self._set_segment(b, t, pb, vb, yaw_b, 0.0)
             self._record(t, Event("collision", ids, t, frame_of(t, self.world.fps),
@@ -273,6 +282,21 @@ class _Engine:
             self._set_segment(k, t, position, (vx, vy, velocity[2]), yaw, 0.0)
         return impulse
 
+    def _apply_anchor(self, t: float) -> None:
+        """Reset the anchored bodies that are active now to their anchor states."""
+        index = {body.id: k for k, body in enumerate(self.bodies)}
+        reset = []
+        for body_id, state in self.anchor.states:
+            k = index[body_id]
+            if self.status[k] != "active":
+                continue  # not entered yet, or removed: nothing to re-anchor
+            self.friction[k] = self.bodies[k].friction
+            self._set_segment(k, t, state.position, state.velocity, state.yaw, state.yaw_rate)
+            reset.append(k)
+        self.anchor = None
+        self.last_collision.clear()
+        self._refresh_pairs(reset, t)
+
     def _record(self, t: float, event: Event) -> None:
         self.events.append((t, len(self.events), event))
 
@@ -295,10 +319,14 @@ class _Engine:
             for key, (tp, _) in self.pred.items():
                 if tp < pair_t:
                     pair_key, pair_t = key, tp
-            t_next = min(body_t, pair_t)
+            anchor_t = self.anchor.time if self.anchor is not None else math.inf
+            t_next = min(body_t, pair_t, anchor_t)
             if t_next > self.t_end:
                 break
             t = t_next
+            if anchor_t <= min(body_t, pair_t):
+                self._apply_anchor(t)
+                continue
             self.event_count += 1
             if self.event_count > MAX_EVENTS and self.contacts_enabled:
                 self.contacts_enabled = False
@@ -319,6 +347,33 @@ class _Engine:
             if not self.logs[k]:  # never entered within the horizon
                 init = self.bodies[k].initial
                 self.logs[k].append(inactive_segment(init.time, init.position, init.yaw))
+
+
+def merge_contact_episodes(events: Sequence[Event], gap: float = CONTACT_EPISODE_GAP) -> list[Event]:
+    """One collision event per contact episode of a pair.
+
+    A push or a rattle is several impulses a few milliseconds apart; CLEVRER
+    (and the scene generator's MuJoCo ground truth) count it as one
+    collision. A pair's collision within ``gap`` seconds of its previous one
+    joins that episode: the first event stays, with the summed impulse.
+    events: in time order. Returns a new list in time order.
+    """
+    merged: list[Event] = []
+    last: dict[tuple[int, ...], tuple[int, float]] = {}
+    for event in events:
+        if event.kind != "collision":
+            merged.append(event)
+            continue
+        previous = last.get(event.bodies)
+        if previous is not None and event.time - previous[1] <= gap:
+            index = previous[0]
+            first = merged[index]
+            merged[index] = Event(first.kind, first.bodies, first.time, first.frame, first.position, first.impulse + event.impulse)
+            last[event.bodies] = (index, event.time)
+            continue
+        last[event.bodies] = (len(merged), event.time)
+        merged.append(event)
+    return merged
 
 
 def simulate(
@@ -353,7 +408,9 @@ def simulate(
 
     fps = edited.fps
     horizon_frames = int(horizon_frames)
-    engine = _Engine(edited, t_end=(horizon_frames - 1) / fps)
+    # The anchor re-starts the factual continuation only: an edited world is
+    # another history and replays from the initial states.
+    engine = _Engine(edited, t_end=(horizon_frames - 1) / fps, use_anchor=not edits)
     engine.run()
 
     times = np.arange(horizon_frames, dtype=float) / fps
@@ -371,7 +428,7 @@ def simulate(
         else:
             visible[:, k] = act & footprint_visible(edited.camera, body.shape, p, y)
 
-    events = [e for _, _, e in sorted(engine.events, key=lambda item: (item[0], item[1]))]
+    events = merge_contact_episodes([e for _, _, e in sorted(engine.events, key=lambda item: (item[0], item[1]))])
     for kind, k, frame in view_events(visible, active):
         body = edited.bodies[k]
         events.append(Event(kind, (body.id,), frame / fps, frame, tuple(float(x) for x in positions[frame, k]), 0.0))

@@ -184,6 +184,29 @@ class Camera:
 
 
 @dataclass(frozen=True)
+class Anchor:
+    """Where the continuation past the observed window starts from.
+
+    A replay from the fitted initial states drifts a little over a long
+    video; the state fitted on each body's last observed stretch is closer
+    to the truth. At ``time`` (s) the unedited base rollout resets every
+    listed body to its ``states`` entry ``(body_id, BodyState)`` and runs on
+    from there. Edited rollouts (counterfactuals) ignore the anchor: they
+    replay another history from the initial states.
+    """
+
+    time: float
+    states: tuple[tuple[int, BodyState], ...]
+
+    def __post_init__(self) -> None:
+        _require(_finite(self.time) and self.time >= 0, f"anchor.time: must be a finite number >= 0, got {self.time!r}")
+        ids = [body_id for body_id, _ in self.states]
+        _require(len(ids) == len(set(ids)), f"anchor.states: duplicate body ids {ids}")
+        for body_id, state in self.states:
+            _require(isinstance(state, BodyState), f"anchor.states[{body_id}]: expected a BodyState")
+
+
+@dataclass(frozen=True)
 class World:
     """A reusable executable world.
 
@@ -192,6 +215,7 @@ class World:
     pair_restitution: optional overrides ``((id_a, id_b, e), ...)`` of the
     per-body restitution for a pair (order of ids does not matter).
     camera: optional, needed for in/out-of-view events.
+    anchor: optional re-anchoring of the unedited continuation (see Anchor).
     provenance: free-form record of where the parameters came from
     (e.g. the fit report); kept JSON-serialisable.
     """
@@ -204,6 +228,7 @@ class World:
     camera: Camera | None = None
     id: str = "world"
     provenance: Mapping[str, object] = field(default_factory=dict)
+    anchor: Anchor | None = None
 
     def __post_init__(self) -> None:
         ids = [b.id for b in self.bodies]
@@ -215,6 +240,9 @@ class World:
         for a, b, e in self.pair_restitution:
             _require(a in known and b in known, f"pair_restitution: unknown body id in pair ({a}, {b}); known ids {sorted(known)}")
             _require(_finite(e) and 0 <= e <= 1, f"pair_restitution: e for ({a}, {b}) must be in [0, 1], got {e!r}")
+        if self.anchor is not None:
+            for body_id, _ in self.anchor.states:
+                _require(body_id in known, f"anchor.states: unknown body id {body_id}; known ids {sorted(known)}")
 
     @property
     def body_ids(self) -> tuple[int, ...]:

@@ -104,6 +104,22 @@ def test_newton_cradle_chain_transfers_momentum_through_touching_bodies():
     assert abs(rollout.velocities[-1, 0, 0]) < 1e-6 and abs(rollout.velocities[-1, 1, 0]) < 1e-6
 
 
+@pytest.mark.parametrize("e", [0.0, 0.3])
+def test_pushing_contact_settles_instead_of_looping(e):
+    # The body ahead brakes harder: after the hit the rear one keeps pushing it. The chain of
+    # ever smaller impulses is settled: both slide together, stop together, never overlap.
+    world = world_of(body(0, (-1.0, 0.0), (4.0, 0.0), friction=0.1, mass=3.0, restitution=e),
+                     body(1, (0.0, 0.0), friction=0.9, mass=1.0, restitution=e), fps=200.0)
+    rollout = simulate(world, horizon_frames=400)
+    assert rollout.notes == ()
+    assert sum(ev.kind == "collision" for ev in rollout.events) < 40
+    gaps = np.linalg.norm(rollout.positions[:, 0, :2] - rollout.positions[:, 1, :2], axis=1) - 0.4
+    assert gaps.min() >= -1e-9
+    stops = {ev.bodies[0]: ev.time for ev in rollout.events if ev.kind == "stop"}
+    assert stops[0] == pytest.approx(stops[1], abs=1e-12)
+    assert np.all(rollout.velocities[-1] == 0.0)
+
+
 @pytest.mark.parametrize("offset", [0.4, 0.4 + 1e-12])
 def test_tangential_touch_gives_no_collision(offset):
     world = world_of(body(0, (-1.0, offset), (2.0, 0.0)), body(1, (0.0, 0.0)))

@@ -29,7 +29,7 @@ from scipy.optimize import least_squares
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, slide_positions
 from world.identify.observations import ObjectTrack, Observations
 from world.identify.segments import CandidateCollision, find_candidate_collisions
-from world.types import STANDARD_GRAVITY, Body, BodyState, World
+from world.types import STANDARD_GRAVITY, Anchor, Body, BodyState, World
 
 MASS_RATIO_BOUNDS = (0.05, 20.0)  # paper, Appendix A: 0.05 < m_i / m_j < 20
 RESTITUTION_BOUNDS = (0.02, 0.99)  # open interval (0, 1), kept off the edges
@@ -47,8 +47,14 @@ class FitConfig:
     joint: bool = True
     prefix_margin_frames: int = 10
     max_nfev_per_stage: int = 60
+    # Relative cost change that ends a stage: millimetre-level changes of an
+    # RMSE of a few millimetres do not change any event.
+    tolerance: float = 1e-4
     # Bodies seen on fewer frames than this get conservative defaults.
-    min_frames: int = 4
+    min_frames: int = 2
+    # simulate(world, edits, horizon_frames) -> Rollout; None: the
+    # event-driven engine (a fixed-step baseline plugs in here).
+    simulator: Callable[..., object] | None = None
 
 
 @dataclass(frozen=True)
@@ -172,6 +178,8 @@ def _response_estimates(
     log_ratios: list[tuple[int, int, float]] = []
     restitution: dict[tuple[int, int], list[float]] = {}
     for c in candidates:
+        if not (np.all(np.isfinite(c.pre)) and np.all(np.isfinite(c.post))):
+            continue  # one side unseen: the jump says nothing about the response
         n = c.normal
         dva, dvb = c.delta_v[0] @ n, c.delta_v[1] @ n
         # a is pushed back (-n), b forward (+n) in a genuine impulse.
@@ -231,6 +239,8 @@ class BodyEstimate:
     friction: float
     mass: float
     restitution: float
+    # Seen at rest long enough before its first contact: velocity stays 0.
+    rest_start: bool = False
 
 
 def _body(estimate: BodyEstimate) -> Body:
@@ -270,23 +280,25 @@ def _world(
     )
 
 
-def _positions(world: World, horizon_frames: int) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
+def _positions(
+    world: World, horizon_frames: int, simulator: Callable[..., object] | None = None
+) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
     """Simulated (T, N, 2) plane positions, (T, N) active mask and body order."""
     from world.rollout import simulate
 
-    rollout = simulate(world, horizon_frames=horizon_frames)
+    rollout = (simulator or simulate)(world, (), horizon_frames)
     return rollout.positions[:, :, :2], rollout.active, rollout.body_ids
 
 
 def _residuals(
-    world: World, tracks: Sequence[ObjectTrack], horizon_frames: int
+    world: World, tracks: Sequence[ObjectTrack], horizon_frames: int, simulator: Callable[..., object] | None = None
 ) -> np.ndarray:
     """Weighted position residuals (metres) of every observed frame < horizon.
 
     Frames where the simulated body is not active count with the observed
     position against the body's entry position (keeps the vector length fixed).
     """
-    positions, active, order = _positions(world, horizon_frames)
+    positions, active, order = _positions(world, horizon_frames, simulator)
     column = {body_id: k for k, body_id in enumerate(order)}
     parts = []
     for track in tracks:
@@ -430,15 +442,73 @@ def _refine_component(
             full[free] = sub
             body_estimates, pairs = packing.unpack(full, estimates)
             world = _world([body_estimates[b] for b in packing.bodies], pairs, observations, config)
-            return _residuals(world, tracks, horizon)
+            return _residuals(world, tracks, horizon, config.simulator)
 
         result = least_squares(
             fn, vector[free], bounds=(low[free], high[free]), x_scale=scale[free],
             max_nfev=config.max_nfev_per_stage, method="trf",
+            ftol=config.tolerance, xtol=config.tolerance, gtol=config.tolerance,
         )
         vector[free] = result.x
     updated, pairs = packing.unpack(vector, estimates)
     return updated, pairs, evaluations
+
+
+# --------------------------------------------------------------------------
+# Stage 5: re-anchoring the continuation
+# --------------------------------------------------------------------------
+def _anchor(world: World, track_fits: Mapping[int, TrackFit], observations: Observations, config: FitConfig) -> Anchor | None:
+    """States at the last observed frame from each body's last collision-free stretch.
+
+    A body is anchored when it is seen on the last frame and its last stretch
+    has at least 3 samples (a contact in the last frames leaves its new
+    velocity unknown: the replay's state is kept). An anchored state that
+    would overlap another body is dropped (the replay is kept) rather than
+    inventing a push.
+    """
+    from world.contacts import footprint_distance
+    from world.rollout import footprint_of, simulate
+
+    last = observations.num_frames - 1
+    if last < 1:
+        return None
+    time_at = last / observations.fps
+    replay = (config.simulator or simulate)(world, (), observations.num_frames)
+    column = {b: k for k, b in enumerate(replay.body_ids)}
+    states: dict[int, BodyState] = {}
+    for body in world.bodies:
+        fit = track_fits[body.id]
+        stretch = fit.stretches[-1]
+        seen_last = fit.track.observed[fit.track.frames == last]
+        if not (seen_last.size and seen_last[0]) or stretch.samples < 3:
+            continue
+        position = slide_positions(np.array([time_at]), stretch.start_time, stretch.position, stretch.velocity, stretch.friction, config.gravity)[0]
+        speed = float(np.hypot(*stretch.velocity))
+        remaining = max(speed - stretch.friction * config.gravity * (time_at - stretch.start_time), 0.0)
+        velocity = stretch.velocity / speed * remaining if speed > 0 else np.zeros(2)
+        yaw = float(replay.yaw[last, column[body.id]])
+        states[body.id] = BodyState(
+            (float(position[0]), float(position[1]), body.shape.rest_height),
+            (float(velocity[0]), float(velocity[1]), 0.0),
+            yaw=yaw, time=time_at,
+        )
+    # Drop anchored states that overlap anything at the anchor time.
+    where = {b.id: (states[b.id].position if b.id in states else replay.positions[last, column[b.id]], b) for b in world.bodies if replay.active[last, column[b.id]] or b.id in states}
+    for body_id in list(states):
+        position, body = where[body_id]
+        for other_id, (other_position, other) in where.items():
+            if other_id == body_id:
+                continue
+            gap, _, _ = footprint_distance(
+                footprint_of(body), position[0], position[1], states[body_id].yaw,
+                footprint_of(other), other_position[0], other_position[1], float(replay.yaw[last, column[other_id]]),
+            )
+            if gap < 0:
+                states.pop(body_id)
+                break
+    if not states:
+        return None
+    return Anchor(time_at, tuple(sorted(states.items())))
 
 
 # --------------------------------------------------------------------------
@@ -495,6 +565,12 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
     for track in usable:
         fit = track_fits[track.id]
         first = fit.stretches[0]
+        rest_start = first.samples >= 3 and not np.any(first.velocity)
+        if first.samples < 3 and len(fit.stretches) > 1:
+            # A contact right after entering the view: the velocity before it
+            # was never seen. Start from the next stretch's velocity and let
+            # the joint fit find the one that explains the contact.
+            first = replace(first, velocity=fit.stretches[1].velocity)
         friction = own_friction[track.id]
         if friction is None:
             friction = similar_friction(track)
@@ -516,6 +592,7 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
             friction=float(np.clip(friction, *MU_BOUNDS)),
             mass=masses[track.id],
             restitution=default_e,
+            rest_start=rest_start,
         )
         if not pair_e and any(track.id in c.bodies for c in candidates):
             defaulted[track.id]["restitution"] = "no approaching collision observed: prior"
@@ -531,7 +608,7 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
                 pair_e.setdefault(pair, default_e)
             frames = sorted({c.frame for c in candidates if c.bodies[0] in component})
             horizons = sorted({min(f + config.prefix_margin_frames, observations.num_frames) for f in frames} | {observations.num_frames})
-            packing = _Packing(component, pairs, tuple(bool(np.any(estimates[b].velocity)) for b in component))
+            packing = _Packing(component, pairs, tuple(not estimates[b].rest_start for b in component))
             pair_frames = {}
             for c in candidates:
                 pair_frames.setdefault(c.bodies, c.frame)
@@ -548,9 +625,9 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
         typical_e = float(np.median(list(pair_e.values())))
         estimates = {i: replace(e, restitution=typical_e) for i, e in estimates.items()}
     world = _world([estimates[t.id] for t in usable], pair_e, observations, config)
-    residuals = _residuals(world, usable, observations.num_frames) if usable else np.zeros(0)
+    residuals = _residuals(world, usable, observations.num_frames, config.simulator) if usable else np.zeros(0)
     object_reports = []
-    positions, active, order = _positions(world, observations.num_frames) if usable else (None, None, ())
+    positions, active, order = _positions(world, observations.num_frames, config.simulator) if usable else (None, None, ())
     column = {b: k for k, b in enumerate(order)}
     for track in observations.objects:
         if track.id not in estimates:
@@ -574,4 +651,6 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
         seconds=time.perf_counter() - began,
         rmse=float(np.sqrt(np.mean(residuals**2) * 2)) if residuals.size else 0.0,
     )
-    return replace(world, provenance={"fit": report.to_dict(), "source": dict(observations.source)}), report
+    anchor = _anchor(world, track_fits, observations, config) if usable else None
+    provenance = {"fit": report.to_dict(), "source": dict(observations.source)}
+    return replace(world, provenance=provenance, anchor=anchor), report

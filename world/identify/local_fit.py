@@ -18,6 +18,9 @@ MU_BOUNDS = (1e-5, 1.0)  # paper, Appendix A: 1e-5 < mu < 1
 # A stretch whose positions stay within this RMS distance (metres) of their
 # mean is at rest: about the tracking noise of a few millimetres.
 REST_RMSE = 0.004
+# Friction needs a deceleration seen over a real stretch: 8 frames at 25 fps
+# (0.3 s) slow a body at mu = 0.05 by only 0.15 m/s.
+MIN_FRICTION_SAMPLES = 8
 
 
 @dataclass(frozen=True)
@@ -118,7 +121,9 @@ def fit_slide(
     stop_time = speed / (mu * gravity) if speed > 0 else 0.0
     # Friction shows in the data only if the stretch saw a real fraction of the
     # deceleration (it stopped inside, or slowed down by a noticeable share).
-    identified = stop_time <= duration * 1.05 or (mu * gravity * duration) > 0.1 * speed
+    identified = t.shape[0] >= MIN_FRICTION_SAMPLES and (
+        stop_time <= duration * 1.05 or (mu * gravity * duration) > 0.1 * speed
+    )
     rmse = float(np.sqrt(2.0 * best.cost / max(np.sum(w**2), 1e-12)))
     # A moving model must explain clearly more than standing still does.
     if rest_rmse < 1.5 * rmse:

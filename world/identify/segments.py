@@ -1,9 +1,10 @@
-"""Candidate collisions from observed tracks, and the stretches between them.
+"""Candidate collisions from observed tracks.
 
 A collision candidate needs two things at once (DESIGN.md, paper Sec. 3.3):
-geometric proximity of the two footprints, and a change of velocity of at
-least one of the two bodies. Candidates only initialise the joint fit; the
-fitted world finds its own contacts by exact root finding.
+a change of velocity of a body (a change point of its track) and, at that
+frame, another body whose footprint is close enough to touch it. Candidates
+only initialise the joint fit and split tracks into stretches for the local
+fits; the fitted world finds its own contacts by exact root finding.
 """
 
 from __future__ import annotations
@@ -15,22 +16,29 @@ import numpy as np
 from world.identify.local_fit import SlideFit, fit_slide
 from world.identify.observations import ObjectTrack, Observations
 
-# Footprints whose bounding circles come within this gap (metres, beyond the
-# noise allowance) may be touching. Cubes' bounding circles over-reach, so
-# proximity alone never decides: a velocity change must confirm it.
-CONTACT_MARGIN = 0.06
-# Smallest velocity change (m/s) that counts as an impulse.
+# Footprints whose bounding circles come within this gap (metres) at a
+# change point may be touching. Cubes' bounding circles over-reach, so
+# proximity alone never decides: the velocity change must be there too.
+CONTACT_MARGIN = 0.08
+# Smallest velocity change (m/s) that counts as an impulse: well above the
+# ~0.04 m/s a frame of friction removes and the noise of window fits.
 MIN_DELTA_V = 0.15
-# Frames on each side of a candidate used to measure the velocity change.
-WINDOW = 8
+# Frames on each side of a frame used to measure its velocity change.
+WINDOW = 6
+# Change points of one body closer than this (frames) are one event.
+MIN_SEPARATION = 4
+# Largest deceleration (m/s^2) friction alone may cause: sliding or rolling
+# objects on a tabletop stay well below mu = 0.12.
+MAX_FRICTION_DECELERATION = 1.2
 
 
 @dataclass(frozen=True)
 class CandidateCollision:
     """A likely collision between ``bodies`` at ``frame``.
 
-    delta_v: (2, 2) observed velocity change (m/s) of each body, in the order
-    of ``bodies``; pre / post: (2, 2) velocities just before / after.
+    pre / post: (2, 2) velocities (m/s) of each body just before / after,
+    in the order of ``bodies``; a row of NaN where that side was not seen
+    (e.g. a body that enters the view right at the contact).
     normal: (2,) unit vector from bodies[0] to bodies[1] at contact.
     """
 
@@ -45,13 +53,111 @@ class CandidateCollision:
         return self.post - self.pre
 
 
-def _window_velocity(
+def _runs(frames: np.ndarray) -> list[np.ndarray]:
+    """Split sorted frame ids into runs of consecutive frames."""
+    if frames.size == 0:
+        return []
+    cuts = np.flatnonzero(np.diff(frames) > 1) + 1
+    return np.split(frames, cuts)
+
+
+def _window_slopes(times: np.ndarray, xy: np.ndarray, window: int) -> tuple[np.ndarray, np.ndarray]:
+    """Least-squares velocity (m/s) on the ``window`` samples before and after each sample.
+
+    times: (T,) s; xy: (T, 2) m. Returns before, after: (T, 2), NaN where
+    fewer than 2 samples exist on that side. The sample itself is excluded
+    from both sides: it may straddle the contact.
+    """
+    count = times.shape[0]
+    before = np.full((count, 2), np.nan)
+    after = np.full((count, 2), np.nan)
+    for k in range(count):
+        for side, low, high in ((before, max(0, k - window), k), (after, k + 1, min(count, k + 1 + window))):
+            if high - low < 2:
+                continue
+            t = times[low:high] - times[low:high].mean()
+            side[k] = (t @ (xy[low:high] - xy[low:high].mean(axis=0))) / (t @ t)
+    return before, after
+
+
+def change_points(track: ObjectTrack, fps: float) -> list[int]:
+    """Frames where the body's velocity jumps by at least MIN_DELTA_V (m/s)."""
+    frames = track.frames[track.observed]
+    positions = track.positions[track.observed, :2]
+    points: list[int] = []
+    offset = 0
+    for run in _runs(frames):
+        xy = positions[offset : offset + run.size]
+        offset += run.size
+        before, after = _window_slopes(run / fps, xy, WINDOW)
+        jump = impulse_strength(before, after, (WINDOW + 1) / fps)
+        # One impulse raises the jump on every frame whose windows straddle
+        # it, peaking at the contact: keep local maxima, strongest first,
+        # kept MIN_SEPARATION apart.
+        padded = np.concatenate([[-1.0], jump, [-1.0]])
+        peak = (jump >= padded[:-2]) & (jump >= padded[2:]) & (jump >= MIN_DELTA_V)
+        chosen: list[int] = []
+        for k in np.flatnonzero(peak)[np.argsort(-jump[peak], kind="stable")]:
+            if all(abs(k - c) >= MIN_SEPARATION for c in chosen):
+                chosen.append(int(k))
+        points += [int(run[k]) for k in sorted(chosen)]
+    return points
+
+
+def impulse_strength(before: np.ndarray, after: np.ndarray, span: float) -> np.ndarray:
+    """How much of a velocity change friction cannot explain (m/s).
+
+    before, after: (T, 2) window velocities (m/s), NaN where unknown; span:
+    seconds between the windows' centres. Friction only slows a body along
+    its direction of motion, by at most MAX_FRICTION_DECELERATION * span;
+    anything sideways, any speed-up, or a larger slow-down needs an impulse.
+    Returns (T,), 0 where unknown.
+    """
+    delta = after - before
+    speed = np.linalg.norm(before, axis=1)
+    direction = before / np.maximum(speed, 1e-9)[:, None]
+    along = np.sum(delta * direction, axis=1)
+    sideways = np.abs(delta[:, 0] * direction[:, 1] - delta[:, 1] * direction[:, 0])
+    allowance = np.minimum(MAX_FRICTION_DECELERATION * span, speed)
+    slow_down = np.maximum(-along - allowance, 0.0)
+    strength = np.sqrt(sideways**2 + slow_down**2 + np.maximum(along, 0.0) ** 2)
+    return np.where(np.isfinite(strength), strength, 0.0)
+
+
+def contact_radius(track: ObjectTrack) -> float:
+    """Largest footprint reach (m) of the body about its centre."""
+    return track.shape.bounding_radius
+
+
+def _gap(track: ObjectTrack, other: ObjectTrack, frame: int) -> float:
+    """Smallest gap (m) between the two bounding circles within +-2 frames of ``frame``; inf if unseen.
+
+    Change points of fast impacts land a frame or two off the contact
+    (a body at 4 m/s moves 16 cm a frame), so a short window is searched.
+    """
+    best = float("inf")
+    for probe in range(frame - 2, frame + 3):
+        here, there = _position_at(track, probe), _position_at(other, probe)
+        if here is not None and there is not None:
+            gap = float(np.hypot(*(there - here))) - contact_radius(track) - contact_radius(other)
+            best = min(best, gap)
+    return best
+
+
+def _position_at(track: ObjectTrack, frame: int) -> np.ndarray | None:
+    index = np.searchsorted(track.frames, frame)
+    if index < track.frames.size and track.frames[index] == frame and track.observed[index]:
+        return track.positions[index, :2]
+    return None
+
+
+def _side_velocity(
     track: ObjectTrack, frames: np.ndarray, at_time: float, fps: float, gravity: float, prior: float
-) -> np.ndarray | None:
-    """Velocity (2,) m/s at ``at_time`` of a slide fitted on the samples at ``frames``."""
+) -> np.ndarray:
+    """Velocity (2,) m/s at ``at_time`` of a slide fitted on the samples at ``frames``; NaN if < 2."""
     mask = np.isin(track.frames, frames) & track.observed
-    if mask.sum() < 3:
-        return None
+    if mask.sum() < 2:
+        return np.full(2, np.nan)
     fit = fit_slide(track.frames[mask] / fps, track.positions[mask, :2], track.weights[mask], gravity, prior)
     return _velocity_at(fit, at_time, gravity)
 
@@ -64,54 +170,47 @@ def _velocity_at(fit: SlideFit, time: float, gravity: float) -> np.ndarray:
     return fit.velocity / speed * remaining
 
 
-def contact_radius(track: ObjectTrack) -> float:
-    """Largest footprint reach (m) of the body about its centre."""
-    return track.shape.bounding_radius
-
-
 def find_candidate_collisions(
     observations: Observations, gravity: float = 9.81, friction_prior: float = 0.3
 ) -> list[CandidateCollision]:
-    """Scan every pair for proximity + velocity change; return candidates by frame."""
+    """Change points matched to the closest touching partner; one candidate per pair and event."""
     fps = observations.fps
-    candidates: list[CandidateCollision] = []
-    tracks = observations.objects
-    for a in range(len(tracks)):
-        for b in range(a + 1, len(tracks)):
-            ta, tb = tracks[a], tracks[b]
-            shared, ia, ib = np.intersect1d(ta.frames, tb.frames, return_indices=True)
-            both = ta.observed[ia] & tb.observed[ib]
-            if not both.any():
-                continue
-            shared, ia, ib = shared[both], ia[both], ib[both]
-            offset = tb.positions[ib, :2] - ta.positions[ia, :2]
-            gap = np.hypot(offset[:, 0], offset[:, 1]) - (contact_radius(ta) + contact_radius(tb))
-            close = gap <= CONTACT_MARGIN
-            if not close.any():
-                continue
-            # Each run of close frames is one candidate contact episode.
-            edges = np.flatnonzero(np.diff(np.concatenate([[0], close.astype(np.int8), [0]])))
-            for start, stop in zip(edges[::2], edges[1::2]):
-                run = slice(start, stop)
-                pick = start + int(np.argmin(gap[run]))
-                frame = int(shared[pick])
-                # Skip the contact frame itself: it may hold either side.
-                before = np.arange(frame - WINDOW, frame)
-                after = np.arange(frame + 1, frame + WINDOW + 1)
-                velocities = []
-                for track in (ta, tb):
-                    v_before = _window_velocity(track, before, frame / fps, fps, gravity, friction_prior)
-                    v_after = _window_velocity(track, after, frame / fps, fps, gravity, friction_prior)
-                    velocities.append((v_before, v_after))
-                if any(v is None for pair in velocities for v in pair):
+    tracks = {t.id: t for t in observations.objects}
+    points = {t.id: change_points(t, fps) for t in observations.objects}
+    found: dict[tuple[tuple[int, int], int], None] = {}
+    for body, frames in points.items():
+        track = tracks[body]
+        for frame in frames:
+            touching = {
+                other_id: gap
+                for other_id, other in tracks.items()
+                if other_id != body and (gap := _gap(track, other, frame)) <= CONTACT_MARGIN
+            }
+            # Partners that felt the impulse too (a change point of their
+            # own) are the collision; if none did (a much heavier partner
+            # barely moves), the closest touching body is.
+            felt = [o for o in touching if any(abs(f - frame) < MIN_SEPARATION for f in points[o])]
+            partners = felt or ([min(touching, key=touching.get)] if touching else [])
+            for other_id in partners:
+                pair = (min(body, other_id), max(body, other_id))
+                if any(p == pair and abs(f - frame) < MIN_SEPARATION for p, f in found):
                     continue
-                pre = np.array([velocities[0][0], velocities[1][0]])
-                post = np.array([velocities[0][1], velocities[1][1]])
-                change = np.hypot(*(post - pre).T)
-                if change.max() < MIN_DELTA_V:
-                    continue
-                normal = offset[pick] / max(np.hypot(*offset[pick]), 1e-9)
-                candidates.append(CandidateCollision((ta.id, tb.id), frame, pre, post, normal))
-    candidates.sort(key=lambda c: (c.frame, c.bodies))
+                found[(pair, frame)] = None
+    candidates = []
+    for (pair, frame), _ in sorted(found.items(), key=lambda item: (item[0][1], item[0][0])):
+        pre, post = [], []
+        for body in pair:
+            # Each side's window stops at the body's neighbouring change points.
+            neighbours = [f for f in points[body] if f != frame]
+            low = max([f for f in neighbours if f < frame] + [frame - 2 * WINDOW])
+            high = min([f for f in neighbours if f > frame] + [frame + 2 * WINDOW])
+            pre.append(_side_velocity(tracks[body], np.arange(low + 1, frame), frame / fps, fps, gravity, friction_prior))
+            post.append(_side_velocity(tracks[body], np.arange(frame + 1, high), frame / fps, fps, gravity, friction_prior))
+        a, b = _position_at(tracks[pair[0]], frame), _position_at(tracks[pair[1]], frame)
+        if a is None or b is None:
+            a = tracks[pair[0]].positions[np.argmin(np.abs(tracks[pair[0]].frames - frame)), :2]
+            b = tracks[pair[1]].positions[np.argmin(np.abs(tracks[pair[1]].frames - frame)), :2]
+        offset = b - a
+        normal = offset / max(float(np.hypot(*offset)), 1e-9)
+        candidates.append(CandidateCollision(pair, frame, np.array(pre), np.array(post), normal))
     return candidates
-

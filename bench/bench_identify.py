@@ -1,0 +1,172 @@
+"""Identification accuracy and speed against MuJoCo ground truth.
+
+Input: a dataset written by ``physmind synth`` (annotations = oracle tracks,
+ground_truth = MuJoCo's future and counterfactual events). For each scene
+and noise level: fit a world (``world.identify.fit.identify``), then score
+it (``bench.metrics.score_world``):
+
+* observed-window position RMSE over visible frames (median, p95);
+* predictive: collisions after the video vs MuJoCo's future (5-frame
+  tolerance), over all objects and over objects seen in the video;
+* counterfactual: per removable object, F1 of the collision SET of our
+  replay vs MuJoCo's re-simulation (mean over removals);
+* wall time of the fit per scene.
+
+``--baseline`` also fits with the fixed-step integrator of the same model
+(``bench.fixed_step``, dt = 1/100 s) and the same optimiser, in the same run.
+
+Usage:
+    python -m bench.bench_identify DATASET_DIR [--scenes N] [--noise 0,0.01,0.03]
+        [--baseline] [--workers 2]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import multiprocessing
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from bench.metrics import GroundTruth, PrecisionRecall, match_events, rollout_collisions, score_world
+from world.identify.fit import FitConfig, identify
+from world.identify.observations import Observations
+from world.rollout import simulate
+
+OBJECT_SIZE = 0.4  # m, side / diameter of the generator's objects: noise is a share of it
+
+
+def _noisy(observations: Observations, sigma: float, seed: int) -> Observations:
+    """Add N(0, sigma) metres to every observed x and y (z untouched)."""
+    if sigma == 0:
+        return observations
+    rng = np.random.default_rng(seed)
+    tracks = []
+    for track in observations.objects:
+        noise = rng.normal(0.0, sigma, track.positions.shape)
+        noise[:, 2] = 0.0
+        tracks.append(replace(track, positions=track.positions + noise))
+    return replace(observations, objects=tuple(tracks))
+
+
+def _simulator(method: str):
+    if method == "analytic":
+        return None, lambda world, edits, horizon: simulate(world, edits, horizon)
+    from bench.fixed_step import simulate_fixed_step
+
+    def stepper(world, edits, horizon):
+        return simulate_fixed_step(world, edits, horizon, dt=0.01)
+
+    return stepper, stepper
+
+
+def evaluate(task: tuple[Path, float, str]) -> dict:
+    """Fit and score one (scene, noise, method); returns plain numbers."""
+    annotation, noise, method = task
+    index = annotation.stem.split("_")[-1]
+    truth = GroundTruth.load(annotation.parent.parent / "ground_truth" / f"scene_{index}.json")
+    clean = Observations.from_clevrer_annotation(annotation, camera=truth.camera)
+    observations = _noisy(clean, noise * OBJECT_SIZE, seed=int(index))
+    fit_simulator, score_simulator = _simulator(method)
+    began = time.perf_counter()
+    world, report = identify(observations, FitConfig(simulator=fit_simulator))
+    seconds = time.perf_counter() - began
+    visible = np.stack([t.visible for t in clean.objects], axis=1)
+    # Each method executes its own fitted world, as its user would.
+    score = score_world(world, truth, score_simulator, visible)
+    seen = {t.id for t in clean.objects if t.visible.any()}
+    base = score_simulator(world, (), truth.horizon_frames)
+    future_seen = [c for c in truth.collisions if c[1] >= truth.observed_frames and set(c[0]) <= seen]
+    predictive_seen = match_events(rollout_collisions(base, truth.observed_frames), future_seen)
+    return {
+        "scene": int(index),
+        "noise": noise,
+        "method": method,
+        "rmse": score.rmse,
+        "predictive": _counts(score.predictive),
+        "predictive_seen": _counts(predictive_seen),
+        "observed": _counts(score.observed),
+        "counterfactual_f1": [c.f1 for c in score.counterfactual],
+        "counterfactual": [_counts(c) for c in score.counterfactual],
+        "seconds": seconds,
+        "evaluations": report.function_evaluations,
+    }
+
+
+def _counts(pr: PrecisionRecall) -> list[int]:
+    return [pr.true_positives, pr.predicted, pr.actual]
+
+
+def _sum(rows: list[dict], key: str) -> PrecisionRecall:
+    total = PrecisionRecall(0, 0, 0)
+    for row in rows:
+        total = total + PrecisionRecall(*row[key])
+    return total
+
+
+def summarise(rows: list[dict]) -> list[str]:
+    header = (
+        f"{'method':<9} {'noise':>5} {'scenes':>6} | {'RMSE med':>8} {'p95':>6} (cm) | "
+        f"{'pred P':>6} {'R':>5} {'F1':>5} | {'F1 seen':>7} | {'CF F1':>5} {'micro':>5} | "
+        f"{'obs F1':>6} | {'fit s med':>9} {'p95':>6}"
+    )
+    lines = [header, "-" * len(header)]
+    groups: dict[tuple[str, float], list[dict]] = {}
+    for row in rows:
+        groups.setdefault((row["method"], row["noise"]), []).append(row)
+    for (method, noise), group in sorted(groups.items()):
+        rmse = np.array([r["rmse"] for r in group]) * 100
+        seconds = np.array([r["seconds"] for r in group])
+        predictive, seen, observed = _sum(group, "predictive"), _sum(group, "predictive_seen"), _sum(group, "observed")
+        cf = [f for r in group for f in r["counterfactual_f1"]]
+        cf_micro = PrecisionRecall(0, 0, 0)
+        for r in group:
+            for c in r["counterfactual"]:
+                cf_micro = cf_micro + PrecisionRecall(*c)
+        lines.append(
+            f"{method:<9} {noise * 100:>4.0f}% {len(group):>6} | {np.nanmedian(rmse):>8.2f} {np.nanpercentile(rmse, 95):>6.2f}      | "
+            f"{predictive.precision:>6.3f} {predictive.recall:>5.3f} {predictive.f1:>5.3f} | {seen.f1:>7.3f} | "
+            f"{np.mean(cf):>5.3f} {cf_micro.f1:>5.3f} | {observed.f1:>6.3f} | {np.median(seconds):>9.2f} {np.percentile(seconds, 95):>6.2f}"
+        )
+    return lines
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("dataset", type=Path, help="directory written by physmind synth")
+    parser.add_argument("--scenes", type=int, default=None, help="use the first N scenes (default: all)")
+    parser.add_argument("--noise", default="0,0.01,0.03", help="position noise levels, share of object size")
+    parser.add_argument("--baseline", action="store_true", help="also fit with the fixed-step integrator")
+    parser.add_argument("--baseline-scenes", type=int, default=None, help="limit the baseline to the first N scenes")
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--json", type=Path, help="write every per-scene row here")
+    args = parser.parse_args(argv)
+
+    annotations = sorted((args.dataset / "annotations").glob("annotation_*.json"))[: args.scenes]
+    if not annotations:
+        raise SystemExit(f"no annotations under {args.dataset / 'annotations'}")
+    noises = [float(v) for v in args.noise.split(",")]
+    tasks = [(a, noise, "analytic") for noise in noises for a in annotations]
+    if args.baseline:
+        for a in annotations[: args.baseline_scenes]:
+            tasks += [(a, noise, "fixed-1/100") for noise in noises]
+    rows = []
+    began = time.perf_counter()
+    with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
+        for k, row in enumerate(pool.imap_unordered(evaluate, tasks), 1):
+            rows.append(row)
+            print(f"\r{k}/{len(tasks)} fits ({time.perf_counter() - began:.0f} s)", end="", flush=True)
+    print()
+    print(f"# {args.dataset}: {len(annotations)} scenes, {args.workers} workers, {time.perf_counter() - began:.0f} s")
+    for line in summarise(rows):
+        print(line)
+    if args.json:
+        args.json.write_text(json.dumps(rows, indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

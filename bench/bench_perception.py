@@ -1,0 +1,240 @@
+"""Benchmark of perception (video -> tracked objects) against the generator's truth.
+
+Usage:
+  MUJOCO_GL=egl physmind synth --out /tmp/perc_bench --scenes 50 --seed 777 --workers 2
+  python -m bench.bench_perception /tmp/perc_bench [--limit N] [--no-e2e] [--worst K]
+
+Per video: perceive, then match perceived tracks to the generator's objects by
+total mask IoU over frames (Hungarian). Masks of perceived objects are the
+fitted primitives' visible silhouettes (pipeline.instance_map).
+
+* detection recall / precision per frame at mask IoU >= 0.5, on frames where
+  the object is fully in view (its true mask does not touch the image border;
+  perceived masks likewise), objects with >= 50 visible pixels;
+* identity switches: changes of the perceived id covering one true object
+  between consecutive covered frames; fragmented: true objects covered by
+  more than one perceived id;
+* position error on the plane (xy, in object radii = 0.2 m) of matched tracks
+  over frames with the object fully in view and weight > 0;
+* colour / shape / material accuracy of matched tracks;
+* wall time per video (decode + perceive);
+* end to end: perceived vs oracle observations -> world.identify.fit.identify
+  -> bench.metrics.score_world: predictive and counterfactual collision F1.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+RADIUS = 0.2  # m, object radius (the unit of position errors)
+MIN_AREA = 50
+
+
+def _masks(path: Path) -> tuple[dict, list[dict[int, np.ndarray]]]:
+    from synth.masks import decode_mask
+
+    document = json.loads(path.read_text())
+    per_frame = [{o["object_id"]: decode_mask(o["mask"]) for o in fr["objects"]} for fr in document["frames"]]
+    attributes = {}
+    for fr in document["frames"]:
+        for o in fr["objects"]:
+            attributes[o["object_id"]] = (o["color"], o["shape"], o["material"])
+    return attributes, per_frame
+
+
+def _touches_border(mask: np.ndarray) -> bool:
+    return bool(mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any())
+
+
+def evaluate_scene(root: Path, index: int, e2e: bool) -> dict:
+    from perception.pipeline import instance_map, perceive_frames
+    from perception.video import load_camera, read_video
+    from world.identify.observations import Observations
+
+    name = f"{index:05d}"
+    camera = load_camera(root / "ground_truth" / f"scene_{name}.json")
+    began = time.perf_counter()
+    frames, fps = read_video(root / "videos" / f"video_{name}.mp4")
+    observations, inter = perceive_frames(frames, camera, fps=fps)
+    wall = time.perf_counter() - began
+    lifted = inter["lifted"]
+    attributes, true_masks = _masks(root / "masks" / f"proposal_{name}.json")
+    annotation = json.loads((root / "annotations" / f"annotation_{name}.json").read_text())
+    true_ids = sorted(attributes)
+    pred_ids = [t.id for t in lifted]
+    num_frames = len(true_masks)
+    pred_maps = [instance_map(camera, lifted, f) for f in range(num_frames)]
+
+    # Per-frame IoU tables and the global track <-> object assignment.
+    overlap = np.zeros((len(pred_ids), len(true_ids)))
+    ious = []
+    for f in range(num_frames):
+        table = {}
+        for pi, p in enumerate(pred_ids):
+            pm = pred_maps[f] == p
+            if not pm.any():
+                continue
+            for ti, t in enumerate(true_ids):
+                tm = true_masks[f].get(t)
+                if tm is None:
+                    continue
+                inter_px = np.logical_and(pm, tm).sum()
+                if inter_px:
+                    iou = inter_px / np.logical_or(pm, tm).sum()
+                    table[(pi, ti)] = iou
+                    overlap[pi, ti] += iou
+        ious.append(table)
+    rows, cols = linear_sum_assignment(-overlap) if overlap.size else ([], [])
+    assigned = {int(r): int(c) for r, c in zip(rows, cols) if overlap[r, c] > 0}
+
+    tp_recall = n_true = tp_precision = n_pred = 0
+    switches = 0
+    covering: dict[int, list[int]] = {t: [] for t in range(len(true_ids))}
+    for f in range(num_frames):
+        for ti, t in enumerate(true_ids):
+            tm = true_masks[f].get(t)
+            if tm is None or tm.sum() < MIN_AREA or _touches_border(tm):
+                continue
+            n_true += 1
+            best = max(((iou, pi) for (pi, tj), iou in ious[f].items() if tj == ti), default=(0.0, -1))
+            if best[0] >= 0.5:
+                tp_recall += 1
+                covering[ti].append(best[1])
+        for pi, p in enumerate(pred_ids):
+            pm = pred_maps[f] == p
+            if pm.sum() < MIN_AREA or _touches_border(pm):
+                continue
+            n_pred += 1
+            if max((iou for (pj, _), iou in ious[f].items() if pj == pi), default=0.0) >= 0.5:
+                tp_precision += 1
+    fragmented = 0
+    for ti, seq in covering.items():
+        switches += sum(1 for a, b in zip(seq, seq[1:]) if a != b)
+        fragmented += len(set(seq)) > 1
+
+    # Positions and attributes of matched tracks.
+    locations = {o["object_id"]: {} for o in annotation["object_property"]}
+    for entry in annotation["motion_trajectory"]:
+        for o in entry["objects"]:
+            locations[o["object_id"]][entry["frame_id"]] = np.asarray(o["location"])
+    errors = []
+    attribute_hits = {"color": [], "shape": [], "material": []}
+    for pi, ti in assigned.items():
+        track, true_id = lifted[pi], true_ids[ti]
+        for frame, position, weight in zip(track.frames, track.positions, track.weights):
+            tm = true_masks[frame].get(true_id)
+            if weight <= 0 or tm is None or _touches_border(tm):
+                continue
+            errors.append(np.linalg.norm(position[:2] - locations[true_id][int(frame)][:2]) / RADIUS)
+        color, shape, material = attributes[true_id]
+        attribute_hits["color"].append(track.attributes.color == color)
+        attribute_hits["shape"].append(track.attributes.shape == shape)
+        attribute_hits["material"].append(track.attributes.material == material)
+        attribute_hits.setdefault("features", []).append((shape, material, track.attributes.shape, track.attributes.highlight_ratio, track.attributes.shape_score))
+    missed_objects = len(true_ids) - len(assigned)
+
+    result = {
+        "scene": index, "wall_s": wall, "recall": (tp_recall, n_true), "precision": (tp_precision, n_pred),
+        "switches": switches, "fragmented": fragmented, "errors": errors, "attributes": attribute_hits,
+        "objects": len(true_ids), "tracks": len(pred_ids), "missed_objects": missed_objects,
+        "timings": inter["timings"],
+    }
+    if e2e:
+        relabelled = []
+        for track in observations.objects:
+            pi = pred_ids.index(track.id)
+            new_id = true_ids[assigned[pi]] if pi in assigned else 100 + track.id
+            relabelled.append(replace(track, id=new_id))
+        perceived = replace(observations, objects=tuple(relabelled))
+        oracle = Observations.from_clevrer_annotation(root / "annotations" / f"annotation_{name}.json", camera=camera)
+        result["e2e"] = {"perceived": _score(perceived, root, name), "oracle": _score(oracle, root, name)}
+    return result
+
+
+def _score(observations, root: Path, name: str) -> dict:
+    from bench.metrics import GroundTruth, score_world
+    from world.identify.fit import identify
+    from world.rollout import simulate
+
+    truth = GroundTruth.load(root / "ground_truth" / f"scene_{name}.json")
+    world, _ = identify(observations)
+    score = score_world(world, truth, lambda w, e, h: simulate(w, e, horizon_frames=h))
+    cf = score.counterfactual
+    return {
+        "predictive": (score.predictive.true_positives, score.predictive.predicted, score.predictive.actual),
+        "counterfactual": (sum(c.true_positives for c in cf), sum(c.predicted for c in cf), sum(c.actual for c in cf)),
+        "rmse": score.rmse,
+    }
+
+
+def _f1(tp: int, predicted: int, actual: int) -> float:
+    p = tp / predicted if predicted else 1.0
+    r = tp / actual if actual else 1.0
+    return 2 * p * r / (p + r) if p + r else 0.0
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("root", type=Path, help="dataset written by `physmind synth`")
+    parser.add_argument("--limit", type=int, default=None)
+    parser.add_argument("--no-e2e", action="store_true", help="skip identification end to end")
+    parser.add_argument("--worst", type=int, default=5, help="list this many weakest scenes")
+    parser.add_argument("--json", type=Path, help="also write per-scene results here")
+    args = parser.parse_args(argv)
+    from tqdm import tqdm
+
+    indices = sorted(int(p.stem.split("_")[1]) for p in (args.root / "videos").glob("video_*.mp4"))[: args.limit]
+    results = [evaluate_scene(args.root, i, not args.no_e2e) for i in tqdm(indices, desc="bench", unit="video")]
+
+    def total(key: str) -> tuple[int, int]:
+        return sum(r[key][0] for r in results), sum(r[key][1] for r in results)
+
+    recall, precision = total("recall"), total("precision")
+    errors = np.concatenate([r["errors"] for r in results if r["errors"]]) if results else np.zeros(0)
+    walls = np.array([r["wall_s"] for r in results])
+    print(f"\nperception on {len(results)} videos of {args.root}")
+    print("| metric | value | target |\n|---|---|---|")
+    print(f"| detection recall (IoU>=0.5, fully in view) | {recall[0] / max(recall[1], 1):.4f} ({recall[0]}/{recall[1]}) | >= 0.97 |")
+    print(f"| detection precision | {precision[0] / max(precision[1], 1):.4f} ({precision[0]}/{precision[1]}) | >= 0.97 |")
+    print(f"| identity switches | {sum(r['switches'] for r in results)} in {len(results)} videos | <= 1 per 20 videos |")
+    print(f"| fragmented objects | {sum(r['fragmented'] for r in results)} of {sum(r['objects'] for r in results)} | |")
+    print(f"| objects without a track | {sum(r['missed_objects'] for r in results)} | |")
+    print(f"| spurious tracks | {sum(max(r['tracks'] - (r['objects'] - r['missed_objects']), 0) for r in results)} | |")
+    if errors.size:
+        print(f"| position error median (radii) | {np.median(errors):.3f} | <= 0.1 |")
+        print(f"| position error p95 (radii) | {np.percentile(errors, 95):.3f} | |")
+    for key, target in (("color", 0.98), ("shape", 0.95), ("material", 0.90)):
+        hits = [h for r in results for h in r["attributes"][key]]
+        print(f"| {key} accuracy | {np.mean(hits):.4f} ({sum(hits)}/{len(hits)}) | >= {target} |")
+    print(f"| wall time per video (s) median / max | {np.median(walls):.2f} / {walls.max():.2f} | < 20 |")
+    stage = {k: np.median([r["timings"][k] for r in results]) for k in results[0]["timings"]}
+    print("| stage medians (s) | " + ", ".join(f"{k} {v:.2f}" for k, v in stage.items()) + " | |")
+    if not args.no_e2e:
+        print("\nend to end (identify -> score_world), summed over videos")
+        print("| tracks | predictive F1 | counterfactual F1 | median RMSE (m) |\n|---|---|---|---|")
+        for which in ("oracle", "perceived"):
+            pred = [sum(r["e2e"][which]["predictive"][k] for r in results) for k in range(3)]
+            cf = [sum(r["e2e"][which]["counterfactual"][k] for r in results) for k in range(3)]
+            rmse = np.nanmedian([r["e2e"][which]["rmse"] for r in results])
+            print(f"| {which} | {_f1(*pred):.3f} | {_f1(*cf):.3f} | {rmse:.3f} |")
+    worst = sorted(results, key=lambda r: (r["switches"] + r["fragmented"] + r["missed_objects"],
+                                           -(r["recall"][0] / max(r["recall"][1], 1))), reverse=True)[: args.worst]
+    print("\nweakest scenes: scene, recall, precision, switches, fragmented, missed objects, attribute misses")
+    for r in worst:
+        misses = {k: len(v) - sum(v) for k, v in r["attributes"].items() if k != "features"}
+        print(f"  {r['scene']:5d} {r['recall'][0] / max(r['recall'][1], 1):.3f} {r['precision'][0] / max(r['precision'][1], 1):.3f} "
+              f"{r['switches']} {r['fragmented']} {r['missed_objects']} {misses}")
+    if args.json:
+        args.json.write_text(json.dumps(results, default=lambda o: o.tolist() if hasattr(o, "tolist") else float(o), indent=1))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,160 @@
+"""Camera geometry for perception: rays, plane back-projection, primitive silhouettes.
+
+Pure numpy. Conventions as world.types.Camera: OpenCV pinhole (x right,
+y down, z forward), ``rotation`` maps camera-frame vectors to the world,
+pixel centres at integer coordinates. World z is up, the floor is z = 0.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from world.types import Camera
+
+
+@dataclass(frozen=True)
+class Box2D:
+    """Integer pixel window [top, bottom) x [left, right) inside the image."""
+
+    top: int
+    bottom: int
+    left: int
+    right: int
+
+    @property
+    def empty(self) -> bool:
+        return self.bottom <= self.top or self.right <= self.left
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (max(self.bottom - self.top, 0), max(self.right - self.left, 0))
+
+
+def project(camera: Camera, points: np.ndarray) -> np.ndarray:
+    """(..., 3) world points, metres -> (..., 2) pixels (u, v); NaN behind the camera."""
+    points = np.asarray(points, dtype=float)
+    rotation = np.asarray(camera.rotation)
+    cam = (points - np.asarray(camera.position)) @ rotation
+    depth = np.where(cam[..., 2] > 1e-9, cam[..., 2], np.nan)
+    return np.stack([camera.fx * cam[..., 0] / depth + camera.cx, camera.fy * cam[..., 1] / depth + camera.cy], axis=-1)
+
+
+def pixel_rays(camera: Camera, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """World-frame (unnormalised) ray directions through pixels; u, v (...,) -> (..., 3)."""
+    rays_cam = np.stack([(np.asarray(u, float) - camera.cx) / camera.fx, (np.asarray(v, float) - camera.cy) / camera.fy,
+                         np.ones(np.shape(u))], axis=-1)
+    return rays_cam @ np.asarray(camera.rotation).T
+
+
+def backproject_to_height(camera: Camera, pixels: np.ndarray, height: float) -> np.ndarray:
+    """Intersect the rays of pixels (M, 2) with the plane z = height (metres); (M, 3) world points.
+
+    Rays that do not go down to the plane (horizon and above) give NaN.
+    """
+    pixels = np.asarray(pixels, dtype=float).reshape(-1, 2)
+    rays = pixel_rays(camera, pixels[:, 0], pixels[:, 1])
+    origin = np.asarray(camera.position)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = (height - origin[2]) / rays[:, 2]
+    scale = np.where(scale > 0, scale, np.nan)
+    return origin + rays * scale[:, None]
+
+
+def ground_jacobian(camera: Camera, point: np.ndarray, step: float = 1e-3) -> np.ndarray:
+    """(2, 2) d(pixel u, v) / d(world x, y) at a 3D point (finite differences)."""
+    point = np.asarray(point, dtype=float)
+    base = project(camera, point)
+    columns = []
+    for axis in range(2):
+        moved = point.copy()
+        moved[axis] += step
+        columns.append((project(camera, moved) - base) / step)
+    return np.stack(columns, axis=1)
+
+
+def primitive_window(camera: Camera, kind: str, centre: np.ndarray, size: float, margin: int = 2) -> Box2D:
+    """Pixel window that holds the silhouette of a primitive of half-size ``size`` at ``centre``."""
+    reach = size * (math.sqrt(2.0) if kind == "cube" else 1.0) + 1e-3
+    offsets = np.array([[dx, dy, dz] for dx in (-reach, reach) for dy in (-reach, reach) for dz in (-size, size)])
+    pixels = project(camera, np.asarray(centre, float)[None, :] + offsets)
+    if np.any(~np.isfinite(pixels)):
+        return Box2D(0, 0, 0, 0)
+    left = max(int(math.floor(pixels[:, 0].min())) - margin, 0)
+    right = min(int(math.ceil(pixels[:, 0].max())) + margin + 1, camera.width)
+    top = max(int(math.floor(pixels[:, 1].min())) - margin, 0)
+    bottom = min(int(math.ceil(pixels[:, 1].max())) + margin + 1, camera.height)
+    return Box2D(top, bottom, left, right)
+
+
+def ray_depths(camera: Camera, kind: str, centre: np.ndarray, size: float, yaw: float, window: Box2D) -> np.ndarray:
+    """Ray-cast one primitive over a pixel window.
+
+    kind: sphere (radius = size), cube (half side = size, yaw about +z),
+    cylinder (radius = half height = size, axis +z). Returns (h, w) float
+    ray parameter of the first hit (proportional to camera depth), inf
+    where the ray misses.
+    """
+    h, w = window.shape
+    if h == 0 or w == 0:
+        return np.full((h, w), np.inf)
+    v, u = np.mgrid[window.top:window.bottom, window.left:window.right].astype(float)
+    directions = pixel_rays(camera, u, v)  # (h, w, 3), camera-depth parametrised (z_cam = t)
+    origin = np.asarray(camera.position) - np.asarray(centre, float)  # ray origin relative to the centre
+    if kind == "sphere":
+        return _hit_sphere(origin, directions, size)
+    if kind == "cylinder":
+        return _hit_cylinder(origin, directions, size, size)
+    if kind == "cube":
+        c, s = math.cos(yaw), math.sin(yaw)
+        to_local = np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])  # world -> body
+        return _hit_box(to_local @ origin, directions @ to_local.T, size)
+    raise ValueError(f"kind: expected sphere, cube or cylinder, got {kind!r}")
+
+
+def _hit_sphere(origin: np.ndarray, d: np.ndarray, radius: float) -> np.ndarray:
+    a = np.einsum("...i,...i->...", d, d)
+    b = 2.0 * d @ origin
+    c = float(origin @ origin) - radius * radius
+    disc = b * b - 4 * a * c
+    with np.errstate(invalid="ignore"):
+        t = (-b - np.sqrt(disc)) / (2 * a)
+    return np.where(disc >= 0, t, np.inf)
+
+
+def _hit_cylinder(origin: np.ndarray, d: np.ndarray, radius: float, half_height: float) -> np.ndarray:
+    # side: |(o + t d)_xy| = r, with |z| <= h
+    a = d[..., 0] ** 2 + d[..., 1] ** 2
+    b = 2.0 * (origin[0] * d[..., 0] + origin[1] * d[..., 1])
+    c = origin[0] ** 2 + origin[1] ** 2 - radius * radius
+    disc = b * b - 4 * a * c
+    with np.errstate(invalid="ignore", divide="ignore"):
+        t_side = (-b - np.sqrt(disc)) / (2 * a)
+        z_side = origin[2] + t_side * d[..., 2]
+        side_ok = (disc >= 0) & (np.abs(z_side) <= half_height)
+        best = np.where(side_ok, t_side, np.inf)
+        for cap in (half_height, -half_height):
+            t_cap = (cap - origin[2]) / d[..., 2]
+            x = origin[0] + t_cap * d[..., 0]
+            y = origin[1] + t_cap * d[..., 1]
+            cap_ok = (t_cap > 0) & (x * x + y * y <= radius * radius)
+            best = np.where(cap_ok & (t_cap < best), t_cap, best)
+    return best
+
+
+def _hit_box(origin: np.ndarray, d: np.ndarray, half: float) -> np.ndarray:
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = 1.0 / np.where(np.abs(d) < 1e-12, 1e-12, d)
+        t1 = (-half - origin) * inv
+        t2 = (half - origin) * inv
+    t_near = np.max(np.minimum(t1, t2), axis=-1)
+    t_far = np.min(np.maximum(t1, t2), axis=-1)
+    return np.where((t_near <= t_far) & (t_far > 0), t_near, np.inf)
+
+
+def silhouette(camera: Camera, kind: str, centre: np.ndarray, size: float, yaw: float = 0.0) -> tuple[Box2D, np.ndarray]:
+    """Window and (h, w) bool silhouette of a primitive (clipped to the image)."""
+    window = primitive_window(camera, kind, centre, size)
+    return window, np.isfinite(ray_depths(camera, kind, centre, size, yaw, window))

@@ -1,0 +1,207 @@
+"""perceive(): video + camera -> Observations (tracked objects on the support plane).
+
+Stages behind small interfaces (perception.types): a Segmenter (classical
+background model + colour split), a Tracker (Hungarian on the ground plane)
+and a Lifter (projected-primitive fit, which also decides shape, colour and
+material from the most isolated frames). A user with learned models can pass
+their own implementations to :func:`perceive_frames`.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from perception.attributes import color_of, material_of
+from perception.background import estimate_background
+from perception.geometry import project, ray_depths, primitive_window
+from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
+from perception.segment import ClassicalSegmenter
+from perception.track import HungarianTracker
+from perception.types import Attributes, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
+from perception.video import read_video
+from world.identify.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
+from world.types import Camera, SHAPE_KINDS
+
+MAX_ATTRIBUTE_FRAMES = 6  # isolated frames used to decide shape / material
+MIN_SHAPE_SCORE = 0.4  # mean silhouette overlap below which a track is not an object
+
+# Per-frame confidence: lower where the object is cut by the border, touches
+# another object, or was carved out of a shared segment.
+WEIGHT_BORDER = 0.5
+WEIGHT_TOUCHING = 0.6
+WEIGHT_SPLIT = 0.3
+
+
+def _isolated_frames(track: TrackState, segments: list[FrameSegments]) -> list[int]:
+    """Frames where the track's segment is whole: alone in its component, not split, not at the border."""
+    areas = np.array([d.area for d in track.detections.values()])
+    typical = float(np.median(areas))
+    chosen = []
+    for frame, det in sorted(track.detections.items()):
+        alone = sum(1 for d in segments[frame].detections if d.component == det.component) == 1
+        if alone and not det.split and not det.touches_border and det.area >= 0.6 * typical:
+            chosen.append(frame)
+    return chosen
+
+
+def _spread(frames: list[int], count: int) -> list[int]:
+    if len(frames) <= count:
+        return frames
+    return [frames[int(round(k))] for k in np.linspace(0, len(frames) - 1, count)]
+
+
+class PrimitiveLifter:
+    """Projected-primitive fit with the known object size (no learned weights)."""
+
+    def __init__(self, object_size: float = DEFAULT_OBJECT_SIZE) -> None:
+        self.size = object_size
+
+    def decide_shape(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> tuple[str, float]:
+        scores = {kind: [] for kind in SHAPE_KINDS}
+        for frame in frames_used:
+            det = track.detections[frame]
+            labels = segments[frame].labels
+            start = initial_centre(camera, det, self.size)
+            scores["sphere"].append(fit_primitive(camera, "sphere", start, self.size, 0.0, labels, det).score)
+            scores["cylinder"].append(fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, det).score)
+            scores["cube"].append(fit_cube(camera, start, self.size, labels, det).score)
+        means = {kind: float(np.mean(v)) if v else 0.0 for kind, v in scores.items()}
+        ranked = sorted(means, key=means.get, reverse=True)
+        return ranked[0], means[ranked[0]] - means[ranked[1]], means[ranked[0]]
+
+    def lift(self, frames: np.ndarray, segments: list[FrameSegments], tracks: list[TrackState],
+             camera: Camera, *, progress: bool = False) -> list[LiftedTrack]:
+        iterator = tracks
+        if progress:
+            from tqdm import tqdm
+
+            iterator = tqdm(tracks, desc="lift", unit="object")
+        lifted = []
+        for track in iterator:
+            isolated = _isolated_frames(track, segments)
+            basis = _spread(isolated, MAX_ATTRIBUTE_FRAMES) or _spread(sorted(track.detections), MAX_ATTRIBUTE_FRAMES)
+            kind, margin, shape_score = self.decide_shape(camera, track, segments, basis)
+            if shape_score < MIN_SHAPE_SCORE:  # no primitive of the known size explains it: a fragment, not an object
+                continue
+            detections = [track.detections[f] for f in basis]
+            color = color_of(detections, frames)
+            material, ratio = material_of(detections, frames, kind)
+            attributes = Attributes(color=color, shape=kind, material=material, confidence=float(np.clip(margin * 5, 0, 1)),
+                                    highlight_ratio=ratio, shape_score=shape_score)
+            frame_ids, positions, yaws, visible, weights = [], [], [], [], []
+            previous: Fit | None = None
+            for frame, det in sorted(track.detections.items()):
+                fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous)
+                previous = fit
+                weight = float(np.clip(fit.score / 0.7, 0.0, 1.0))
+                if det.touches_border:
+                    weight *= WEIGHT_BORDER
+                if det.split or frame in track.merged:
+                    weight *= WEIGHT_SPLIT
+                elif sum(1 for d in segments[frame].detections if d.component == det.component) > 1:
+                    weight *= WEIGHT_TOUCHING
+                pixel = project(camera, fit.centre)
+                inside = bool(np.all(np.isfinite(pixel)) and -0.5 <= pixel[0] <= camera.width - 0.5 and -0.5 <= pixel[1] <= camera.height - 0.5)
+                frame_ids.append(frame)
+                positions.append(fit.centre)
+                yaws.append(fit.yaw if kind == "cube" else np.nan)
+                visible.append(inside)
+                weights.append(weight)
+            lifted.append(LiftedTrack(track.id, attributes, np.asarray(frame_ids, dtype=np.int64), np.asarray(positions),
+                                      np.asarray(yaws), np.asarray(visible), np.asarray(weights)))
+        return _renumber(_drop_duplicates(lifted, self.size))
+
+
+def _drop_duplicates(lifted: list[LiftedTrack], size: float) -> list[LiftedTrack]:
+    """Two solid objects cannot have centres closer than one size apart: when two tracks
+    share most of their common frames that closely, the one with the worse fit is a fragment."""
+    order = sorted(lifted, key=lambda t: (t.attributes.shape_score * len(t.frames)), reverse=True)
+    kept: list[LiftedTrack] = []
+    for track in order:
+        duplicate = False
+        for other in kept:
+            common, ia, ib = np.intersect1d(track.frames, other.frames, return_indices=True)
+            if common.size == 0:
+                continue
+            gaps = np.linalg.norm(track.positions[ia, :2] - other.positions[ib, :2], axis=1)
+            if np.mean(gaps < size) > 0.5:
+                duplicate = True
+                break
+        if not duplicate:
+            kept.append(track)
+    return kept
+
+
+def _renumber(lifted: list[LiftedTrack]) -> list[LiftedTrack]:
+    """Ids 0..K-1 in order of first appearance."""
+    from dataclasses import replace
+
+    ordered = sorted(lifted, key=lambda t: (int(t.frames[0]), t.id))
+    return [replace(t, id=k) for k, t in enumerate(ordered)]
+
+
+def check_frames(frames: np.ndarray, camera: Camera) -> None:
+    height, width = frames.shape[1:3]
+    if (width, height) != (camera.width, camera.height):
+        raise ValueError(f"camera: width x height {camera.width}x{camera.height} does not match the video's {width}x{height} pixels")
+
+
+def perceive_frames(frames: np.ndarray, camera: Camera, *, fps: float = 25.0, progress: bool = False,
+                    segmenter: Segmenter | None = None, tracker: Tracker | None = None, lifter: Lifter | None = None,
+                    object_size: float = DEFAULT_OBJECT_SIZE) -> tuple[Observations, dict]:
+    """(F, H, W, 3) uint8 frames -> (Observations, intermediates dict with segments / tracks / lifted / timings)."""
+    check_frames(frames, camera)
+    timings = {}
+    began = time.perf_counter()
+    segmenter = segmenter or ClassicalSegmenter()
+    segments = segmenter.segment(frames, progress=progress)
+    timings["segment_s"] = time.perf_counter() - began
+    began = time.perf_counter()
+    tracks = (tracker or HungarianTracker(object_size)).track(segments, camera)
+    timings["track_s"] = time.perf_counter() - began
+    began = time.perf_counter()
+    lifted = (lifter or PrimitiveLifter(object_size)).lift(frames, segments, tracks, camera, progress=progress)
+    timings["lift_s"] = time.perf_counter() - began
+    objects = tuple(
+        ObjectTrack(id=t.id, shape=default_shape(t.attributes.shape, object_size), frames=t.frames, positions=t.positions,
+                    yaw=t.yaw, visible=t.visible, weights=t.weights, color=t.attributes.color, material=t.attributes.material)
+        for t in lifted
+    )
+    observations = Observations(objects=objects, fps=fps, num_frames=int(frames.shape[0]), camera=camera,
+                                source={"kind": "perception", "method": "classical background + primitive fit"})
+    return observations, {"segments": segments, "tracks": tracks, "lifted": lifted, "timings": timings}
+
+
+def perceive(video_path: str | Path, camera: Camera, *, progress: bool = False) -> Observations:
+    """Tracked objects of a static-camera tabletop video, on the plane z = 0.
+
+    video_path: an mp4 (any format PyAV decodes); camera: intrinsics + pose
+    (world.types.Camera, OpenCV convention) whose width x height must match the video.
+    """
+    frames, fps = read_video(video_path)
+    observations, _ = perceive_frames(frames, camera, fps=fps, progress=progress)
+    return observations
+
+
+def instance_map(camera: Camera, lifted: list[LiftedTrack], frame: int, object_size: float = DEFAULT_OBJECT_SIZE) -> np.ndarray:
+    """(H, W) int16 track id per pixel (-1 floor) from the fitted primitives at ``frame``, nearest surface wins."""
+    depth = np.full((camera.height, camera.width), np.inf)
+    ids = np.full((camera.height, camera.width), -1, dtype=np.int16)
+    for track in lifted:
+        where = np.nonzero(track.frames == frame)[0]
+        if where.size == 0:
+            continue
+        k = int(where[0])
+        yaw = 0.0 if np.isnan(track.yaw[k]) else float(track.yaw[k])
+        window = primitive_window(camera, track.attributes.shape, track.positions[k], object_size)
+        if window.empty:
+            continue
+        t = ray_depths(camera, track.attributes.shape, track.positions[k], object_size, yaw, window)
+        region = depth[window.top:window.bottom, window.left:window.right]
+        nearer = t < region
+        region[nearer] = t[nearer]
+        ids[window.top:window.bottom, window.left:window.right][nearer] = track.id
+    return ids

@@ -1,0 +1,141 @@
+"""Multi-object tracking on the support plane with Hungarian assignment.
+
+Each detection's centroid is back-projected to the plane of object centres
+(z = object half size) for a rough ground position; tracks predict with
+constant velocity and are matched to detections of the same colour label by
+ground distance within a gate that widens while a track is unseen (occlusion,
+merges). A segment holding two same-coloured tracks (objects that touch) is
+split between them by k-means on pixel coordinates seeded at the predicted
+positions. Tracks seen in fewer than MIN_TRACK_FRAMES frames are dropped and
+ids are renumbered 0..K-1 by first appearance.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+from perception.geometry import backproject_to_height, project
+from perception.types import Detection, FrameSegments, TrackState
+from world.identify.observations import DEFAULT_OBJECT_SIZE
+from world.types import Camera
+
+GATE_BASE = 0.45  # m: largest jump between consecutive frames (4 m/s is 0.16 m/frame, plus segmentation noise)
+GATE_PER_MISSED_FRAME = 0.12  # m per unseen frame
+GATE_MAX = 2.0  # m
+HUE_MISMATCH_COST = 1.0  # m-equivalent penalty: a colour label change is allowed but costly
+MIN_TRACK_FRAMES = 4
+MIN_TRACK_AREA = 150  # px: a real object is larger than this in at least one frame
+SPLIT_AREA_FACTOR = 1.35  # a segment this much larger than a track's usual area may hold two objects
+
+
+class HungarianTracker:
+    """Ground-plane constant-velocity tracker with colour-aware Hungarian matching."""
+
+    def __init__(self, object_size: float = DEFAULT_OBJECT_SIZE) -> None:
+        self.object_size = object_size
+
+    def _ground(self, camera: Camera, detection: Detection) -> np.ndarray:
+        point = backproject_to_height(camera, detection.centroid[None], self.object_size)[0, :2]
+        return point if np.all(np.isfinite(point)) else np.array([0.0, 1e3])
+
+    def track(self, segments: list[FrameSegments], camera: Camera) -> list[TrackState]:
+        tracks: list[TrackState] = []
+        for frame_segments in segments:
+            frame = frame_segments.frame
+            detections = list(frame_segments.detections)
+            live = [t for t in tracks if t.detections]
+            detections = self._split_shared(detections, live, frame, camera)
+            grounds = [self._ground(camera, d) for d in detections]
+            cost = np.full((len(live), len(detections)), 1e6)
+            for i, track in enumerate(live):
+                predicted, gap = self._predict(track, frame)
+                gate = min(GATE_BASE + GATE_PER_MISSED_FRAME * (gap - 1), GATE_MAX)
+                for j, det in enumerate(detections):
+                    distance = float(np.linalg.norm(grounds[j] - predicted))
+                    if distance <= gate:
+                        cost[i, j] = distance + (0.0 if det.hue_label == track.hue_label else HUE_MISMATCH_COST)
+            matched = set()
+            if live and detections:
+                rows, cols = linear_sum_assignment(cost)
+                for i, j in zip(rows, cols):
+                    if cost[i, j] < 1e6:
+                        live[i].detections[frame] = detections[j]
+                        live[i].ground[frame] = grounds[j]
+                        if detections[j].split:
+                            live[i].merged.add(frame)
+                        matched.add(j)
+            for j, det in enumerate(detections):
+                if j not in matched:
+                    tracks.append(TrackState(id=len(tracks), hue_label=det.hue_label, detections={frame: det}, ground={frame: grounds[j]}))
+            for track in tracks:  # the colour label follows the majority of the track's pixels
+                if frame in track.detections:
+                    track.hue_label = _majority_hue(track)
+        kept = [t for t in tracks if len(t.detections) >= MIN_TRACK_FRAMES and max(d.area for d in t.detections.values()) >= MIN_TRACK_AREA]
+        kept.sort(key=lambda t: (min(t.detections), t.id))
+        for new_id, track in enumerate(kept):
+            track.id = new_id
+        return kept
+
+    def _predict(self, track: TrackState, frame: int) -> tuple[np.ndarray, int]:
+        """Predicted ground xy (m) at ``frame`` and the number of frames since last seen."""
+        seen = sorted(track.ground)
+        last = seen[-1]
+        gap = frame - last
+        position = track.ground[last]
+        if len(seen) >= 2 and seen[-1] - seen[-2] <= 3:
+            velocity = (track.ground[seen[-1]] - track.ground[seen[-2]]) / (seen[-1] - seen[-2])
+            position = position + velocity * min(gap, 5)  # do not extrapolate far through occlusions
+        return position, gap
+
+    def _split_shared(self, detections: list[Detection], live: list[TrackState], frame: int, camera: Camera) -> list[Detection]:
+        """Split segments that hold two or more recently seen same-coloured tracks."""
+        result = []
+        for det in detections:
+            owners = []
+            for track in live:
+                if track.hue_label != det.hue_label:
+                    continue
+                predicted, gap = self._predict(track, frame)
+                if gap > 3:
+                    continue
+                pixel = project(camera, np.array([predicted[0], predicted[1], self.object_size]))
+                if not np.all(np.isfinite(pixel)):
+                    continue
+                inside = (det.xs.min() - 3 <= pixel[0] <= det.xs.max() + 3) and (det.ys.min() - 3 <= pixel[1] <= det.ys.max() + 3)
+                if inside:
+                    owners.append((track, pixel))
+            if len(owners) < 2:
+                result.append(det)
+                continue
+            usual = max(np.median([d.area for d in t.detections.values()][-10:]) for t, _ in owners)
+            if det.area < SPLIT_AREA_FACTOR * usual:
+                result.append(det)
+                continue
+            result.extend(_kmeans_split(det, np.array([p for _, p in owners])))
+        return result
+
+
+def _majority_hue(track: TrackState) -> int:
+    weights: dict[int, int] = {}
+    for det in track.detections.values():
+        weights[det.hue_label] = weights.get(det.hue_label, 0) + det.area
+    return max(weights, key=weights.get)
+
+
+def _kmeans_split(det: Detection, seeds: np.ndarray, iterations: int = 5) -> list[Detection]:
+    """Split a segment's pixels among K seeds (K, 2) pixel (u, v) by k-means on pixel coordinates."""
+    points = np.stack([det.xs, det.ys], axis=1).astype(float)
+    centres = seeds.astype(float).copy()
+    for _ in range(iterations):
+        nearest = np.argmin(((points[:, None, :] - centres[None]) ** 2).sum(-1), axis=1)
+        for k in range(len(centres)):
+            if np.any(nearest == k):
+                centres[k] = points[nearest == k].mean(axis=0)
+    pieces = []
+    for k in range(len(centres)):
+        chosen = nearest == k
+        if chosen.sum() == 0:
+            continue
+        pieces.append(Detection(det.frame, det.ys[chosen], det.xs[chosen], det.hue_label, det.touches_border, det.component, split=True))
+    return pieces

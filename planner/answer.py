@@ -1,0 +1,113 @@
+"""Answers and their evidence: frozen records, JSON conversion and text rendering.
+
+An :class:`Answer` holds one verdict per choice ("correct" / "wrong", or None
+when the choice could not be decided, with the reason), the facts each
+verdict rests on (events with frames, rollout ids, grounded object ids) and
+the tool calls (by index into the video's call log) that produced them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Literal, Mapping, Sequence
+
+from planner.client import ToolCall
+from planner.grounding import Grounding
+
+Verdict = Literal["correct", "wrong"]
+
+
+@dataclass(frozen=True)
+class ChoiceAnswer:
+    """The verdict on one choice.
+
+    verdict: None when undecided (``error`` says why: unparsed text, a
+    reference that is ambiguous or unmatched, a program that does not apply).
+    facts: human-readable statements the verdict rests on.
+    tool_calls: indices into the video's tool-call log.
+    """
+
+    choice_id: int
+    text: str
+    program: tuple[str, ...] | None
+    verdict: Verdict | None
+    facts: tuple[str, ...] = ()
+    tool_calls: tuple[int, ...] = ()
+    error: str | None = None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"choice_id": self.choice_id, "choice": self.text, "program": None if self.program is None else list(self.program),
+                "verdict": self.verdict, "facts": list(self.facts), "tool_calls": list(self.tool_calls), "error": self.error}
+
+
+@dataclass(frozen=True)
+class Answer:
+    """A multiple-choice question answered against one world.
+
+    method: "program" (the offline executor), "trajectory_only" (the
+    ablation: counterfactuals from factual events) or "vlm".
+    facts: statements shared by all choices (the explained event, the
+    rollout used, ...). tool_calls: every call the answer used.
+    """
+
+    question: str
+    question_type: str | None
+    program: tuple[str, ...] | None
+    choices: tuple[ChoiceAnswer, ...]
+    method: str = "program"
+    groundings: tuple[Grounding, ...] = ()
+    facts: tuple[str, ...] = ()
+    tool_calls: tuple[int, ...] = ()
+    error: str | None = None
+    seconds: float = 0.0
+    extra: Mapping[str, Any] = field(default_factory=dict)
+
+    @property
+    def verdicts(self) -> list[Verdict | None]:
+        return [c.verdict for c in self.choices]
+
+    def to_dict(self, calls: Sequence[ToolCall] | None = None) -> dict[str, Any]:
+        """JSON-ready; with ``calls`` (the video's log) the cited calls are inlined."""
+        document: dict[str, Any] = {
+            "question": self.question, "question_type": self.question_type,
+            "program": None if self.program is None else list(self.program), "method": self.method,
+            "groundings": [g.to_dict() for g in self.groundings], "facts": list(self.facts),
+            "choices": [c.to_dict() for c in self.choices], "tool_calls": list(self.tool_calls),
+            "error": self.error, "seconds": round(self.seconds, 4),
+        }
+        if self.extra:
+            document["extra"] = dict(self.extra)
+        if calls is not None:
+            document["tool_call_log"] = [calls[i].to_dict() for i in self.tool_calls if 0 <= i < len(calls)]
+        return document
+
+
+def render_answer(answer: Answer, calls: Sequence[ToolCall] = (), truth: Sequence[str | None] | None = None) -> str:
+    """Plain-text rendering: verdict per choice with its facts, the tool calls, optionally the ground truth."""
+    lines = [f"Q ({answer.question_type or '?'}): {answer.question}"]
+    if answer.program is not None:
+        lines.append(f"  program: {' '.join(answer.program)}")
+    for grounding in answer.groundings:
+        lines.append(f"  grounding: {grounding.message()}")
+    for fact in answer.facts:
+        lines.append(f"  fact: {fact}")
+    if answer.error:
+        lines.append(f"  error: {answer.error}")
+    for k, choice in enumerate(answer.choices):
+        verdict = choice.verdict or "undecided"
+        mark = ""
+        if truth is not None and k < len(truth) and truth[k] is not None:
+            mark = f"   [truth: {truth[k]}{'' if truth[k] == choice.verdict else '  <-- MISMATCH'}]"
+        lines.append(f"  ({k}) {choice.text!r}: {verdict.upper()}{mark}")
+        for fact in choice.facts:
+            lines.append(f"        because: {fact}")
+        if choice.error:
+            lines.append(f"        error: {choice.error}")
+    cited = [calls[i] for i in answer.tool_calls if 0 <= i < len(calls)]
+    if cited:
+        lines.append("  tool calls:")
+        for call in cited:
+            arguments = ", ".join(f"{k}={v}" for k, v in call.arguments.items()) or "-"
+            result = ", ".join(f"{k}={v}" for k, v in call.digest.items())
+            lines.append(f"    #{call.index} {call.tool}({arguments}) -> {call.status} {result} [{call.duration_ms:.1f} ms]")
+    return "\n".join(lines)

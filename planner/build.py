@@ -1,0 +1,136 @@
+"""Build an executable world from a video (perception + identification) or from tracks.
+
+This is the one part of ``planner/`` that runs in-process rather than over
+HTTP: the tool server accepts world documents only (its ``observations`` and
+``video`` sources are reserved), so ``physmind build`` produces the document
+the server then hosts.
+
+* ``source="video"``: ``perception.pipeline.perceive(video, camera)`` ->
+  Observations -> ``world.identify.fit.identify`` -> world;
+* ``source="annotation"``: the oracle tracks of a CLEVRER annotation
+  (``Observations.from_clevrer_annotation``) -> identify -> world.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Literal, Mapping
+
+Source = Literal["video", "annotation"]
+SOURCES: tuple[str, ...] = ("video", "annotation")
+_CAMERA_FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "position", "rotation")
+
+
+@dataclass(frozen=True)
+class BuildResult:
+    """world: the world document (``world.io.world_to_dict``); seconds: wall time of
+    the whole build; perception_seconds / fit_seconds: the two stages; rmse: fit
+    position RMSE over observed frames (m)."""
+
+    world: dict[str, Any]
+    source: str
+    seconds: float
+    perception_seconds: float
+    fit_seconds: float
+    rmse: float | None
+
+    def info(self) -> dict[str, Any]:
+        return {"source": self.source, "seconds": round(self.seconds, 3), "perception_seconds": round(self.perception_seconds, 3),
+                "fit_seconds": round(self.fit_seconds, 3), "rmse_m": None if self.rmse is None else round(self.rmse, 5)}
+
+
+def camera_from_document(document: Mapping[str, Any], where: str = "camera"):
+    """A ``world.types.Camera`` from a camera JSON: bare, under ``"camera"`` (a synth
+    ground-truth file works as is), extra keys such as ``fovy_deg`` ignored.
+
+    Raises:
+        ValueError: a missing or invalid field, named.
+    """
+    from world.types import Camera
+
+    if isinstance(document, Mapping) and isinstance(document.get("camera"), Mapping):
+        document = document["camera"]
+    if not isinstance(document, Mapping):
+        raise ValueError(f"{where}: expected a JSON object with {', '.join(_CAMERA_FIELDS)}")
+    missing = [k for k in _CAMERA_FIELDS if k not in document]
+    if missing:
+        raise ValueError(f"{where}: missing field(s) {missing}")
+    try:
+        return Camera(width=int(document["width"]), height=int(document["height"]), fx=float(document["fx"]), fy=float(document["fy"]),
+                      cx=float(document["cx"]), cy=float(document["cy"]), position=tuple(float(v) for v in document["position"]),
+                      rotation=tuple(tuple(float(v) for v in row) for row in document["rotation"]))
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{where}: {error}") from None
+
+
+def load_camera(path: Path):
+    if not Path(path).is_file():
+        raise FileNotFoundError(f"camera file not found: {path}")
+    try:
+        document = json.loads(Path(path).read_text())
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{path}: not valid JSON ({error.msg} at line {error.lineno})") from None
+    return camera_from_document(document, where=str(path))
+
+
+def json_safe(value: Any) -> Any:
+    """``value`` with every non-finite float replaced by None (recursively)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, Mapping):
+        return {k: json_safe(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [json_safe(v) for v in value]
+    return value
+
+
+def perception_available() -> bool:
+    """True when ``perception.pipeline.perceive`` can be imported."""
+    try:
+        from perception.pipeline import perceive  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+def build_world(path: Path, source: Source, camera=None, progress: bool = False) -> BuildResult:
+    """Video or annotation file -> fitted world document.
+
+    Raises:
+        FileNotFoundError: no such input file.
+        ValueError: unknown source, or the input cannot be read.
+        RuntimeError: ``source="video"`` while the perception pipeline is not installed.
+    """
+    from world.identify.fit import identify
+    from world.identify.observations import Observations
+    from world.io import world_to_dict
+
+    if source not in SOURCES:
+        raise ValueError(f"source: expected one of {SOURCES}, got {source!r}")
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{source} file not found: {path}")
+    started = time.perf_counter()
+    if source == "video":
+        if camera is None:
+            raise ValueError("building from video needs the camera (--camera camera.json: intrinsics + pose)")
+        try:
+            from perception.pipeline import perceive
+        except ImportError:
+            raise RuntimeError("building from video needs perception.pipeline.perceive, which is not available in this checkout") from None
+        observations = perceive(path, camera, progress=progress)
+    else:
+        observations = Observations.from_clevrer_annotation(path, camera=camera)
+    perceived = time.perf_counter()
+    world, report = identify(observations)
+    finished = time.perf_counter()
+    rmse = getattr(report, "rmse", None)
+    document = world_to_dict(world)
+    # The fit report may hold NaN (e.g. the RMSE of an object never in view); JSON has no NaN.
+    document["provenance"] = json_safe(document.get("provenance", {}))
+    return BuildResult(document, source, finished - started, perceived - started, finished - perceived,
+                       None if rmse is None else float(rmse))

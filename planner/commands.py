@@ -1,0 +1,184 @@
+"""``physmind build``, ``physmind ask`` and ``physmind eval`` (registered by planner/cli.py).
+
+    physmind build video.mp4 --camera camera.json -o world.json
+    physmind build annotation_00000.json --camera scene_00000.json -o world.json   (oracle tracks)
+    physmind ask --world world.json "Which event will happen next?" --choice "The red cube collides with the sphere" ...
+    physmind ask --server http://127.0.0.1:8000 --world-id w-... "..." --choice ... [--vlm --base-url ... --model ...]
+    physmind eval DATASET_DIR [--workers N] [--source annotation|video] [--mode execute|trajectory_only] [-o report.json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import json
+import sys
+import time
+from pathlib import Path
+from typing import Any, Iterator
+
+
+def register_build(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "build", help="build an executable world from a video (perception + identification)",
+        description="Video (or a CLEVRER annotation with oracle tracks) -> observations -> fitted world document.")
+    parser.add_argument("input", type=Path, help="video.mp4, or annotation_XXXXX.json with --source annotation")
+    parser.add_argument("--camera", type=Path, help="camera JSON (intrinsics + pose; a synth ground_truth file works)")
+    parser.add_argument("--source", choices=("auto", "video", "annotation"), default="auto",
+                        help="auto: .json -> annotation, anything else -> video")
+    parser.add_argument("-o", "--output", type=Path, required=True, help="world.json to write")
+    parser.set_defaults(handler=run_build)
+
+
+def register_ask(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "ask", help="ask a multiple-choice question about a world",
+        description="Answer a CLEVRER-style question with one verdict per choice, grounded in tool calls over HTTP. "
+                    "Offline program executor by default; --vlm drives an OpenAI-compatible model instead.")
+    parser.add_argument("question", help="e.g. 'Which of the following will happen if the red cube is removed?'")
+    parser.add_argument("--choice", action="append", default=[], required=True, help="one option (repeat)")
+    where = parser.add_argument_group("world")
+    where.add_argument("--world", type=Path, help="world.json (registered on the server; a local server is started without --server)")
+    where.add_argument("--server", help="URL of a running tool server (PHYSMIND_API_KEY is sent when set)")
+    where.add_argument("--world-id", help="a world already on --server")
+    parser.add_argument("--mode", choices=("execute", "trajectory_only"), default="execute", help="trajectory_only: the no-execution ablation")
+    parser.add_argument("--json", type=Path, help="also write the answer with its evidence as JSON")
+    _vlm_arguments(parser)
+    parser.set_defaults(handler=run_ask)
+
+
+def _vlm_arguments(parser: argparse.ArgumentParser) -> None:
+    group = parser.add_argument_group("VLM (OpenAI-compatible chat completions with function calling)")
+    group.add_argument("--vlm", action="store_true", help="let a model plan the tool calls instead of the program executor")
+    group.add_argument("--base-url", default=None, help="e.g. http://localhost:8001/v1 (default $OPENAI_BASE_URL)")
+    group.add_argument("--model", default=None, help="model name (default $OPENAI_MODEL)")
+    group.add_argument("--api-key", default=None, help="default $OPENAI_API_KEY (prefer the environment: arguments are visible in ps)")
+    group.add_argument("--max-tool-calls", type=int, default=24, help="tool-call budget per question (default 24)")
+
+
+def register_eval(subparsers: Any) -> None:
+    parser = subparsers.add_parser(
+        "eval", help="evaluate question answering on a CLEVRER-layout dataset",
+        description="Build a world per video, ask every question through the tool server, and print per-option and "
+                    "per-question accuracy per question type (the paper's Table 1 layout).")
+    parser.add_argument("dataset", type=Path, metavar="DATASET_DIR", help="directory with questions.json, annotations/, videos/")
+    parser.add_argument("--source", choices=("annotation", "video"), default="annotation",
+                        help="annotation: oracle tracks (default); video: perception + identification")
+    parser.add_argument("--mode", choices=("execute", "trajectory_only"), default="execute")
+    parser.add_argument("--workers", type=int, default=1, help="processes building worlds in parallel")
+    parser.add_argument("--camera", type=Path, help="camera JSON for videos without ground_truth/scene_XXXXX.json")
+    parser.add_argument("--limit", type=int, help="only the first N videos")
+    parser.add_argument("--cache", type=Path, help="directory to reuse/store built worlds (world_XXXXX.json)")
+    parser.add_argument("--server", help="URL of a running tool server (default: start one on a free loopback port)")
+    parser.add_argument("-o", "--output", type=Path, default=Path("eval_report.json"), help="JSON report (default eval_report.json)")
+    parser.set_defaults(handler=run_eval)
+
+
+# -- handlers -----------------------------------------------------------------------------
+
+
+def run_build(args: argparse.Namespace) -> int:
+    from planner.build import build_world, load_camera
+
+    source = args.source
+    if source == "auto":
+        source = "annotation" if args.input.suffix.lower() == ".json" else "video"
+    camera = load_camera(args.camera) if args.camera else None
+    print(f"building a world from {source} {args.input} ...", flush=True)
+    result = build_world(args.input, source, camera, progress=True)
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    args.output.write_text(json.dumps(result.world, indent=1))
+    rmse = "-" if result.rmse is None else f"{result.rmse * 100:.1f} cm"
+    print(f"world with {len(result.world['bodies'])} bodies -> {args.output} "
+          f"(perception {result.perception_seconds:.1f} s, fit {result.fit_seconds:.1f} s, rmse {rmse})")
+    return 0
+
+
+@contextlib.contextmanager
+def _server_for(args: argparse.Namespace) -> Iterator[str]:
+    if args.server:
+        yield args.server
+        return
+    from planner.local_server import local_server
+
+    with local_server() as url:
+        yield url
+
+
+def run_ask(args: argparse.Namespace) -> int:
+    from planner.answer import render_answer
+    from planner.client import ToolClient
+
+    if args.world is None and args.world_id is None:
+        raise ValueError("give --world world.json, or --server URL with --world-id")
+    if args.world_id is not None and args.server is None:
+        raise ValueError("--world-id needs --server")
+    if args.world is not None and not args.world.is_file():
+        raise FileNotFoundError(f"world file not found: {args.world}")
+    document = None
+    if args.world is not None:
+        try:
+            document = json.loads(args.world.read_text())
+        except json.JSONDecodeError as error:
+            raise ValueError(f"{args.world}: not valid JSON ({error.msg})") from None
+    with _server_for(args) as url, ToolClient(url) as client:
+        world = client.create_world(document, name=args.world.stem) if document is not None else client.world(args.world_id)
+        if args.vlm:
+            from planner.vlm import ChatClient, VlmConfig, answer_with_vlm
+
+            config = VlmConfig.from_args(args.base_url, args.model, args.api_key, max_tool_calls=args.max_tool_calls)
+            with ChatClient(config) as chat:
+                answer = answer_with_vlm(chat, client, world, args.question, list(args.choice), config)
+        else:
+            from planner.executor import ExecutorConfig, VideoExecutor
+
+            answer = VideoExecutor(world, ExecutorConfig(mode=args.mode)).answer_text(args.question, list(args.choice))
+        print(render_answer(answer, world.calls))
+        if args.json:
+            args.json.parent.mkdir(parents=True, exist_ok=True)
+            args.json.write_text(json.dumps({"world_id": world.world_id, "server": url, **answer.to_dict(world.calls)}, indent=1))
+    return 0 if answer.error is None else 1
+
+
+def run_eval(args: argparse.Namespace) -> int:
+    from planner.build import load_camera
+    from planner.client import ToolClient
+    from planner.evaluate import build_worlds, evaluate, format_table, load_dataset
+    from planner.executor import ExecutorConfig
+
+    if args.workers < 1:
+        raise ValueError(f"--workers: expected >= 1, got {args.workers}")
+    if args.limit is not None and args.limit < 1:
+        raise ValueError(f"--limit: expected >= 1, got {args.limit}")
+    camera_document = None
+    if args.camera:
+        load_camera(args.camera)  # validates
+        camera_document = json.loads(args.camera.read_text())
+    entries = load_dataset(args.dataset, camera_document, args.limit)
+    if not entries:
+        raise ValueError(f"{args.dataset}/questions.json holds no videos")
+    if args.source == "video":
+        from planner.build import perception_available
+
+        if not perception_available():
+            raise ValueError("--source video needs the perception pipeline (perception/pipeline.py), which is not available")
+    started = time.perf_counter()
+    worlds, infos = build_worlds(entries, args.source, args.workers, args.cache, progress=True)
+    build_seconds = time.perf_counter() - started
+    with _server_for(args) as url, ToolClient(url) as client:
+        result = evaluate(entries, worlds, client, ExecutorConfig(mode=args.mode), progress=True, build_info=infos)
+    label = f"{'oracle tracks' if args.source == 'annotation' else 'video'} ({args.mode})"
+    table = result.table()
+    print(format_table({label: table}))
+    failed_builds = {k: v["error"] for k, v in infos.items() if "error" in v}
+    for index, error in sorted(failed_builds.items()):
+        print(f"scene {index}: build failed: {error}", file=sys.stderr)
+    report = result.to_dict(label, {"dataset": str(args.dataset), "source": args.source, "mode": args.mode,
+                                    "videos": len(entries), "build_wall_seconds": round(build_seconds, 2)})
+    args.output.parent.mkdir(parents=True, exist_ok=True)
+    args.output.write_text(json.dumps(report, indent=1))
+    cost = report["cost"]
+    per_video = "-" if cost["build_seconds_per_video"] is None else f"{cost['build_seconds_per_video']:.1f} s"
+    print(f"{len(entries)} videos, {cost['questions']} questions; build {per_video}/video, "
+          f"answer {cost['answer_seconds_per_question'] * 1000:.0f} ms/question; report -> {args.output}")
+    return 0

@@ -1,0 +1,460 @@
+"""The offline program executor: questions -> programs -> tool calls over HTTP -> answers.
+
+Paper Section 3.3 (F_exec + F_ans) without a language model. A
+:class:`VideoExecutor` wraps one world registered on the tool server and
+fetches, lazily and once per video, everything the CLEVRER programs need:
+
+* ``get_world_summary``: the objects (ids + attributes) for grounding;
+* ``list_events`` on the base rollout: the observed events (frame <
+  observed_frames), from which the causal traces are built;
+* the continuation beyond the observed frames for ``unseen_events``: the base
+  rollout when it reaches the prediction horizon, else one longer replay of
+  the same world (``simulate_edit`` with a parameter set to the value it
+  already has and ``horizon_frames``; the tool has no edit-free horizon
+  argument);
+* ``counterfact_events(obj)``: ``simulate_edit(remove_object, obj)``, one
+  edited rollout per removed object, reused by every question of the video,
+  with ``compare_rollouts`` for the pairs the removal adds or removes and
+  ``check_contact`` on the edited rollout for every collision option.
+
+The events feed :mod:`planner.program` (the same interpreter that computes the
+ground truth from MuJoCo), so semantics cannot drift. The
+``trajectory_only`` mode is the ablation of the paper's Figure 4: no
+intervention is executed and a counterfactual is answered from the factual
+events with the removed object's events dropped.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any, Iterable, Literal, Mapping, Sequence
+
+from planner.answer import Answer, ChoiceAnswer
+from planner.client import ToolCallError, WorldHandle
+from planner.grammar import ParseError
+from planner.grounding import Grounding, WorldObject, failed, ground_program, objects_from_summary
+from planner.parser import parse_choice, parse_question
+from planner.program import EventRecord, ObjectRecord, ProgramError, ProgramScene, execute
+
+Mode = Literal["execute", "trajectory_only"]
+MODES: tuple[str, ...] = ("execute", "trajectory_only")
+# CLEVRER-style datasets simulate 1.4x the observed window (128 -> 180 frames).
+DEFAULT_PREDICTION_FACTOR = 1.4
+QUESTION_TAILS = ("belong_to",)
+
+
+@dataclass(frozen=True)
+class ExecutorConfig:
+    """mode: "execute" or "trajectory_only" (ablation). prediction_horizon_frames:
+    frames the continuation covers (default ceil(1.4 x observed frames)).
+    corroborate: also call check_contact on every collision option of a
+    predictive / counterfactual question (evidence only; the verdict comes from the events)."""
+
+    mode: Mode = "execute"
+    prediction_horizon_frames: int | None = None
+    corroborate: bool = True
+
+    def __post_init__(self) -> None:
+        if self.mode not in MODES:
+            raise ValueError(f"mode: expected one of {MODES}, got {self.mode!r}")
+        if self.prediction_horizon_frames is not None and self.prediction_horizon_frames < 1:
+            raise ValueError(f"prediction_horizon_frames: must be >= 1, got {self.prediction_horizon_frames}")
+
+
+def _event_from_record(record: Mapping[str, Any]) -> EventRecord | None:
+    kind = record.get("kind")
+    if kind not in ("collision", "in", "out"):
+        return None  # "stop" events are not CLEVRER events
+    return EventRecord(kind, tuple(int(o) for o in record["objects"]), int(record["frame"]))
+
+
+# CLEVRER's collision definition: one touch is one collision; a pair collides
+# anew only after 0.2 s without contact (docs/formats.md). The engine may emit
+# several contact events for one touch (multi-body clusters), so they are merged.
+COLLISION_DEBOUNCE_SECONDS = 0.2
+
+
+def clevrer_events(records: Iterable[Mapping[str, Any]], fps: float) -> list[EventRecord]:
+    """Tool event records -> interpreter events: stop events dropped, exact
+    duplicates removed, a pair's collisions within the debounce window merged
+    into the first one."""
+    window = int(round(COLLISION_DEBOUNCE_SECONDS * fps))
+    events = sorted((e for e in (_event_from_record(r) for r in records) if e is not None), key=lambda e: (e.frame, e.kind, e.objects))
+    kept: list[EventRecord] = []
+    last_contact: dict[tuple[int, ...], int] = {}
+    seen: set[EventRecord] = set()
+    for event in events:
+        if event in seen:
+            continue
+        seen.add(event)
+        if event.kind == "collision":
+            previous = last_contact.get(event.objects)
+            last_contact[event.objects] = event.frame  # type: ignore[assignment]
+            if previous is not None and event.frame - previous <= window:  # type: ignore[operator]
+                continue
+        kept.append(event)
+    return kept
+
+
+def describe_event(event: EventRecord) -> str:
+    where = "" if event.frame is None else f" at frame {event.frame}"
+    if event.kind == "collision":
+        return f"collision of objects {event.objects[0]} and {event.objects[1]}{where}"
+    if event.kind in ("in", "out"):
+        verb = "enters" if event.kind == "in" else "exits"
+        return f"object {event.objects[0]} {verb} the view{where}"
+    return f"{event.kind}{where}"
+
+
+def _same_event(a: EventRecord, b: EventRecord) -> bool:
+    return a.kind == b.kind and set(a.objects) == set(b.objects)
+
+
+class VideoExecutor:
+    """Answers questions about one world on the server; caches per-video tool results."""
+
+    def __init__(self, world: WorldHandle, config: ExecutorConfig = ExecutorConfig()):
+        self.world = world
+        self.config = config
+        self._summary: dict[str, Any] | None = None
+        self._summary_call: int | None = None
+        self._base: list[EventRecord] | None = None
+        self._base_call: int | None = None
+        self._base_horizon = 0
+        self._continuation: tuple[list[EventRecord], str, int, int] | None = None  # events, rollout id, call, horizon
+        self._counterfactual: dict[int, tuple[list[EventRecord], str, tuple[int, ...], str]] = {}
+
+    # -- what the world says (each fetched once) ---------------------------------
+
+    @property
+    def summary(self) -> dict[str, Any]:
+        if self._summary is None:
+            self._summary = self.world.call("get_world_summary")
+            self._summary_call = self.world.last_call.index
+        return self._summary
+
+    @property
+    def observed_frames(self) -> int:
+        return int(self.summary["observed_frames"])
+
+    @property
+    def objects(self) -> tuple[WorldObject, ...]:
+        return objects_from_summary(self.summary)
+
+    def program_objects(self) -> tuple[ObjectRecord, ...]:
+        """Objects the interpreter can filter; an object with an unknown attribute cannot be named, so it is left out."""
+        return tuple(ObjectRecord(o.object_id, o.color, o.material, o.shape) for o in self.objects
+                     if o.color is not None and o.material is not None and o.shape is not None)
+
+    def base_events(self) -> list[EventRecord]:
+        if self._base is None:
+            result = self.world.call("list_events", rollout_id="base", kinds=["collision", "in", "out"])
+            self._base_call = self.world.last_call.index
+            self._base_horizon = int(result["boundaries"]["horizon_frames"])
+            self._base = clevrer_events(result["events"], float(self.summary["fps"]))
+        return self._base
+
+    def prediction_horizon(self) -> int:
+        if self.config.prediction_horizon_frames is not None:
+            return self.config.prediction_horizon_frames
+        return int(math.ceil(self.observed_frames * DEFAULT_PREDICTION_FACTOR))
+
+    def continuation(self) -> tuple[list[EventRecord], str, int, int]:
+        """(events at frame >= observed, rollout id, call index, horizon) of the factual continuation."""
+        if self._continuation is None:
+            base = self.base_events()
+            horizon = self.prediction_horizon()
+            if self._base_horizon >= horizon:
+                events = [e for e in base if e.frame is not None and self.observed_frames <= e.frame < horizon]
+                self._continuation = (events, "base", self._base_call, self._base_horizon)  # type: ignore[arg-type]
+            else:
+                # Same world, longer replay: an edit that sets a friction to the value it already has.
+                body = self.summary["objects"][0]
+                result = self.world.call("simulate_edit", edit_type="set_friction", object_id=body["object_id"],
+                                         value=body["friction"], horizon_frames=horizon, trajectory_detail="summary")
+                call = self.world.last_call.index
+                records = list(result["collisions"]) + list(result["in_out_events"])
+                events = [e for e in clevrer_events(records, float(self.summary["fps"])) if e.frame >= self.observed_frames]
+                self._continuation = (events, result["rollout_id"], call, horizon)
+        return self._continuation
+
+    def counterfactual(self, object_id: int) -> tuple[list[EventRecord], str, tuple[int, ...], str]:
+        """(events of the replay without ``object_id``, rollout id, call indices, summary of the change)."""
+        if object_id not in self._counterfactual:
+            if self.config.mode == "trajectory_only":
+                events = [e for e in self.base_events() if object_id not in e.objects]
+                note = f"trajectory-only: factual events without object {object_id} (no replay executed)"
+                self._counterfactual[object_id] = (events, "base", (self._base_call,), note)  # type: ignore[arg-type]
+            else:
+                result = self.world.call("simulate_edit", edit_type="remove_object", object_id=object_id, trajectory_detail="summary")
+                calls = [self.world.last_call.index]
+                records = list(result["collisions"]) + list(result["in_out_events"])
+                events = clevrer_events(records, float(self.summary["fps"]))
+                rollout_id = result["rollout_id"]
+                comparison = self.world.call("compare_rollouts", edited_rollout_id=rollout_id)
+                calls.append(self.world.last_call.index)
+                note = (f"rollout {rollout_id} (object {object_id} removed): collision pairs added "
+                        f"{comparison['added_pairs']}, removed {comparison['removed_pairs']}")
+                self._counterfactual[object_id] = (events, rollout_id, tuple(calls), note)
+        return self._counterfactual[object_id]
+
+    def scene(self) -> ProgramScene:
+        """The interpreter's view: observed events, the continuation, counterfactuals on demand."""
+        observed = [e for e in self.base_events() if e.frame is not None and e.frame < self.observed_frames]
+        future = self.continuation()[0] if self._continuation is not None else []
+        return ProgramScene(
+            objects=self.program_objects(),
+            events=tuple(observed + future),
+            observed_frames=self.observed_frames,
+            counterfactual=lambda object_id: self.counterfactual(object_id)[0],
+        )
+
+    # -- answering ----------------------------------------------------------------
+
+    def answer_text(self, question: str, choices: Sequence[str]) -> Answer:
+        """Parse the question and its choices, then answer (see :meth:`answer_programs`)."""
+        started = time.perf_counter()
+        try:
+            parsed = parse_question(question)
+        except ParseError as error:
+            return Answer(question, None, None, tuple(ChoiceAnswer(k, c, None, None, error="question not parsed") for k, c in enumerate(choices)),
+                          error=f"question not parsed: {error}", seconds=time.perf_counter() - started)
+        programs: list[tuple[str, ...] | None] = []
+        errors: list[str | None] = []
+        for text in choices:
+            try:
+                programs.append(parse_choice(text, parsed.question_type))
+                errors.append(None)
+            except ParseError as error:
+                programs.append(None)
+                errors.append(f"choice not parsed: {error}")
+        answer = self.answer_programs(question, parsed.question_type, parsed.program, list(zip(choices, programs, errors)))
+        return _with_seconds(answer, time.perf_counter() - started)
+
+    def answer_programs(self, question: str, question_type: str, program: Sequence[str],
+                        choices: Sequence[tuple[str, Sequence[str] | None, str | None]]) -> Answer:
+        """Answer a question given its program and (text, program or None, parse error or None) per choice."""
+        started = time.perf_counter()
+        program = tuple(program)
+        method = "trajectory_only" if self.config.mode == "trajectory_only" else "program"
+        try:
+            objects = self.objects
+            groundings = ground_program(program, objects)
+        except (ToolCallError, ValueError) as error:
+            undecided = tuple(ChoiceAnswer(k, text, None if p is None else tuple(p), None, error=str(error)) for k, (text, p, _) in enumerate(choices))
+            return Answer(question, question_type, program, undecided, method=method, error=str(error), seconds=time.perf_counter() - started)
+        bad = failed(groundings)
+        # A counterfactual that removes an object the world does not contain (it was never
+        # observed) changes nothing: the factual events answer it. Any other failure is reported.
+        absent_removal = (bool(bad) and all(g.status == "unmatched" for g in bad) and _counterfactual_form(program)
+                          and len(groundings) == 1)
+        if bad and not absent_removal:
+            message = "; ".join(g.message() for g in bad)
+            undecided = tuple(ChoiceAnswer(k, text, None if p is None else tuple(p), None, error=f"question reference: {message}")
+                              for k, (text, p, _) in enumerate(choices))
+            return Answer(question, question_type, program, undecided, method=method, groundings=tuple(groundings),
+                          error=f"cannot ground the question: {message}", seconds=time.perf_counter() - started)
+
+        # Fetch what this question type needs, then build the interpreter's scene.
+        shared_calls: list[int] = [self._summary_call] if self._summary_call is not None else []
+        facts: list[str] = []
+        try:
+            self.base_events()
+            shared_calls.append(self._base_call)  # type: ignore[arg-type]
+            if question_type == "predictive" or "unseen_events" in program:
+                events, rollout_id, call, horizon = self.continuation()
+                shared_calls.append(call)
+                facts.append(f"unseen events: frames {self.observed_frames}..{horizon - 1} of rollout {rollout_id!r}: "
+                             + (", ".join(describe_event(e) for e in events) or "none"))
+            scene = self.scene()
+            if absent_removal:
+                removed = None
+                reference = tuple(e for e in scene.events if e.frame is not None and e.frame < scene.observed_frames)
+                facts.append(f"{bad[0].message()}: an object the world does not contain (never observed) cannot change it, "
+                             f"so the factual events before frame {scene.observed_frames} answer: "
+                             + (", ".join(describe_event(e) for e in reference) or "none"))
+            else:
+                removed = _removed_object(program, groundings)
+                if removed is not None:
+                    events, rollout_id, calls, note = self.counterfactual(removed)
+                    shared_calls.extend(calls)
+                    facts.append(note)
+                reference, reference_fact = self._reference_list(program, scene)
+                if reference_fact:
+                    facts.append(reference_fact)
+        except (ToolCallError, ProgramError) as error:
+            undecided = tuple(ChoiceAnswer(k, text, None if p is None else tuple(p), None, error=str(error)) for k, (text, p, _) in enumerate(choices))
+            return Answer(question, question_type, program, undecided, method=method, groundings=tuple(groundings),
+                          error=str(error), tool_calls=tuple(shared_calls), seconds=time.perf_counter() - started)
+
+        answers = []
+        all_groundings = list(groundings)
+        for k, (text, choice_program, parse_error) in enumerate(choices):
+            answers.append(self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
+                                               removed, all_groundings, membership_only=absent_removal))
+        used = sorted({*shared_calls, *(i for a in answers for i in a.tool_calls)})
+        distinct = tuple({(g.reference, g.object_ids): g for g in all_groundings}.values())
+        return Answer(question, question_type, program, tuple(answers), method=method, groundings=distinct,
+                      facts=tuple(facts), tool_calls=tuple(used), seconds=time.perf_counter() - started)
+
+    def _reference_list(self, program: tuple[str, ...], scene: ProgramScene) -> tuple[tuple[EventRecord, ...] | None, str | None]:
+        """The event list a ``... belong_to [negate]`` question tests its choices against, and a fact naming it."""
+        tail = program[:-1] if program and program[-1] == "negate" else program
+        if not tail or tail[-1] != "belong_to":
+            return None, None
+        value = execute(list(tail[:-1]), scene)
+        if not isinstance(value, tuple):
+            return None, None
+        events = tuple(e for e in value if isinstance(e, EventRecord))
+        text = ", ".join(describe_event(e) for e in events) or "none"
+        if "filter_ancestor" in tail:
+            return events, f"causes (ancestor events in the causal traces) of the explained event: {text}"
+        if "counterfact_events" in tail:
+            return events, f"events of the replay before frame {scene.observed_frames}: {text}"
+        if "unseen_events" in tail:
+            return events, None  # already stated with the continuation
+        return events, f"reference events: {text}"
+
+    def _answer_choice(self, k: int, text: str, choice_program: Sequence[str] | None, parse_error: str | None,
+                       program: tuple[str, ...], question_type: str, scene: ProgramScene,
+                       reference: tuple[EventRecord, ...] | None, removed: int | None, all_groundings: list[Grounding],
+                       membership_only: bool = False) -> ChoiceAnswer:
+        """One verdict. ``membership_only``: the question program cannot run (its removed object is
+        absent), so the option is tested against ``reference`` directly, as ``belong_to`` does."""
+        if choice_program is None:
+            return ChoiceAnswer(k, text, None, None, error=parse_error or "choice not parsed")
+        choice_program = tuple(choice_program)
+        groundings = ground_program(choice_program, self.objects)
+        all_groundings.extend(groundings)
+        bad = failed(groundings)
+        negated = bool(program) and program[-1] == "negate"
+        if bad:
+            if reference is None or any(g.status == "ambiguous" for g in bad):
+                return ChoiceAnswer(k, text, choice_program, None, error="; ".join(g.message() for g in bad))
+            # The option names an object the world does not contain (never observed): it takes part in no event.
+            facts = [f"{g.message()}: an object the world does not contain takes part in none of its events" for g in bad]
+            if negated:
+                facts.append("the question is negated: the option is correct when the event/object is NOT listed")
+            return ChoiceAnswer(k, text, choice_program, "correct" if negated else "wrong", facts=tuple(facts))
+        try:
+            value = execute(list(choice_program), scene)
+            if membership_only:
+                if reference is None or not isinstance(value, (ObjectRecord, EventRecord)):
+                    raise ProgramError("the option is neither an object nor an event")
+                listed = (any(value.id in e.objects for e in reference) if isinstance(value, ObjectRecord)
+                          else any(_same_event(value, e) for e in reference))
+                result = "yes" if listed != negated else "no"
+            else:
+                result = execute(list(choice_program) + list(program), scene)
+        except ProgramError as error:
+            candidates = _event_selection(choice_program, scene)
+            if candidates is None or reference is None:
+                return ChoiceAnswer(k, text, choice_program, None, error=f"program does not apply: {error}")
+            if not candidates:
+                # The option names an event the world's rollout does not contain: it cannot be listed.
+                listed = False
+                facts = ["the event the option names does not occur in the world's rollout, so it is not among the listed events"]
+            else:
+                # Several touches of the same pair: belong_to compares kind and objects only, so any of them decides.
+                listed = any(_same_event(candidates[0], e) for e in reference)
+                facts = [f"the option's event occurs {len(candidates)} times ({', '.join(describe_event(c) for c in candidates)}); "
+                         f"{'listed' if listed else 'not listed'} (membership ignores frames)"]
+            if negated:
+                facts.append("the question is negated: the option is correct when the event/object is NOT listed")
+            return ChoiceAnswer(k, text, choice_program, "correct" if listed != negated else "wrong", facts=tuple(facts))
+        if result not in ("yes", "no"):
+            return ChoiceAnswer(k, text, choice_program, None, error=f"the program gives {result!r}, not yes/no")
+        facts: list[str] = []
+        calls: list[int] = []
+        if reference is not None:
+            if isinstance(value, ObjectRecord):
+                involved = [e for e in reference if value.id in e.objects]
+                facts.append(f"object {value.id} ({value.color} {value.material} {value.shape}) takes part in "
+                             + (", ".join(describe_event(e) for e in involved) if involved else f"none of the {len(reference)} listed events"))
+            elif isinstance(value, EventRecord):
+                found = [e for e in reference if _same_event(e, value)]
+                facts.append(f"{describe_event(value)}: " + ("found, " + ", ".join(describe_event(e) for e in found) if found
+                                                               else f"not among the {len(reference)} listed events"))
+            if negated:
+                facts.append("the question is negated: the option is correct when the event/object is NOT listed")
+        if self.config.corroborate and isinstance(value, EventRecord) and value.kind == "collision" and question_type in ("predictive", "counterfactual"):
+            note = self._corroborate(value, question_type, removed)
+            if note is not None:
+                facts.append(note[0])
+                calls.append(note[1])
+        return ChoiceAnswer(k, text, choice_program, "correct" if result == "yes" else "wrong", facts=tuple(facts), tool_calls=tuple(calls))
+
+    def _corroborate(self, event: EventRecord, question_type: str, removed: int | None) -> tuple[str, int] | None:
+        """check_contact on the rollout the verdict came from (evidence, never the verdict)."""
+        a, b = event.objects
+        if question_type == "predictive":
+            _, rollout_id, _, horizon = self.continuation()
+            frames = {"frame_start": self.observed_frames, "frame_end": horizon - 1}
+        else:
+            if removed is None or self.config.mode == "trajectory_only":
+                return None
+            rollout_id = self.counterfactual(removed)[1]
+            frames = {"frame_start": 0, "frame_end": self.observed_frames - 1}
+        try:
+            result = self.world.call("check_contact", object_a=a, object_b=b, rollout_id=rollout_id, **frames)
+        except ToolCallError as error:
+            return f"check_contact({a}, {b}) on {rollout_id!r} failed: {error}", self.world.last_call.index
+        change = ""
+        if isinstance(result.get("base_comparison"), Mapping):
+            change = f", versus base: {result['base_comparison'].get('change')}"
+        return (f"check_contact({a}, {b}) on rollout {rollout_id!r} frames {frames['frame_start']}..{frames['frame_end']}: "
+                f"{result.get('status')} (first frame {result.get('first_frame')}, nearest {result.get('nearest_distance')} m{change})",
+                self.world.last_call.index)
+
+
+def _event_selection(choice_program: tuple[str, ...], scene: ProgramScene) -> tuple[EventRecord, ...] | None:
+    """The events an event choice (``events|all_events ... filter_collision|in|out unique``) selects before
+    ``unique``; None for other choices or when the selection itself fails."""
+    if len(choice_program) < 2 or choice_program[0] not in ("events", "all_events", "unseen_events") or choice_program[-1] != "unique":
+        return None
+    try:
+        candidates = execute(list(choice_program[:-1]), scene)
+    except ProgramError:
+        return None
+    if not isinstance(candidates, tuple) or any(not isinstance(c, EventRecord) for c in candidates):
+        return None
+    return candidates
+
+
+def _counterfactual_form(program: Sequence[str]) -> bool:
+    """``OBJ counterfact_events belong_to [negate]``: the generator's counterfactual question."""
+    tail = list(program[:-1]) if program and program[-1] == "negate" else list(program)
+    return len(tail) >= 3 and tail[-2:] == ["counterfact_events", "belong_to"] and tail[0] == "objects"
+
+
+def _removed_object(program: Sequence[str], groundings: Sequence[Grounding]) -> int | None:
+    """The object a ``... counterfact_events`` / ``filter_counterfact`` question removes (its last reference before the operator)."""
+    for operator in ("counterfact_events", "filter_counterfact"):
+        if operator in program:
+            position = list(program).index(operator)
+            before = sum(1 for k in range(position) if program[k] == "objects")
+            if before and before <= len(groundings):
+                return groundings[before - 1].object_id
+    return None
+
+
+def _with_seconds(answer: Answer, seconds: float) -> Answer:
+    from dataclasses import replace
+
+    return replace(answer, seconds=seconds)
+
+
+def truth_of(question: Mapping[str, Any]) -> list[str | None]:
+    """The dataset's 'correct'/'wrong' per choice (None where absent)."""
+    return [c.get("answer") for c in question.get("choices", [])]
+
+
+def answer_dataset_question(executor: VideoExecutor, question: Mapping[str, Any]) -> Answer:
+    """Answer a CLEVRER question record from its text (parsed here; the dataset's programs are not used)."""
+    return executor.answer_text(str(question["question"]), [str(c["choice"]) for c in question["choices"]])
+
+
+def iter_choice_texts(question: Mapping[str, Any]) -> Iterable[str]:
+    return (str(c["choice"]) for c in question.get("choices", []))

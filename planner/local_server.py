@@ -1,0 +1,75 @@
+"""Start the tool server as a subprocess on a free loopback port (demo, eval, ask).
+
+The planner still talks to it over HTTP only; this module just runs
+``python -m server.cli serve`` and waits for ``/healthz``.
+"""
+
+from __future__ import annotations
+
+import os
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Iterator
+
+import httpx
+
+
+def free_port() -> int:
+    """A TCP port on 127.0.0.1 that was free a moment ago."""
+    with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as sock:
+        sock.bind(("127.0.0.1", 0))
+        return int(sock.getsockname()[1])
+
+
+@contextmanager
+def local_server(data_dir: Path | None = None, timeout: float = 60.0, log_path: Path | None = None) -> Iterator[str]:
+    """Run ``physmind serve`` on 127.0.0.1:<free port>; yields its base URL, stops it on exit.
+
+    data_dir: the registry directory (default: a fresh temporary directory,
+    removed afterwards). The server's log goes to ``log_path`` (default: the
+    data directory's ``server.log``). PHYSMIND_API_KEY is not passed on.
+
+    Raises:
+        RuntimeError: the server exited or did not answer /healthz within ``timeout`` s.
+    """
+    with tempfile.TemporaryDirectory(prefix="physmind-") as scratch:
+        directory = Path(data_dir) if data_dir is not None else Path(scratch)
+        directory.mkdir(parents=True, exist_ok=True)
+        log_file = Path(log_path) if log_path is not None else directory / "server.log"
+        port = free_port()
+        env = {k: v for k, v in os.environ.items() if k != "PHYSMIND_API_KEY"}
+        env.setdefault("PHYSMIND_LOG_LEVEL", "WARNING")
+        with open(log_file, "ab") as log:
+            process = subprocess.Popen(
+                [sys.executable, "-m", "server.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(directory)],
+                stdout=log, stderr=subprocess.STDOUT, env=env,
+            )
+        url = f"http://127.0.0.1:{port}"
+        try:
+            deadline = time.monotonic() + timeout
+            while True:
+                if process.poll() is not None:
+                    tail = log_file.read_text(errors="replace")[-2000:]
+                    raise RuntimeError(f"the tool server exited with code {process.returncode}:\n{tail}")
+                try:
+                    if httpx.get(url + "/healthz", timeout=2.0).status_code == 200:
+                        break
+                except httpx.TransportError:
+                    pass
+                if time.monotonic() > deadline:
+                    raise RuntimeError(f"the tool server did not answer {url}/healthz within {timeout:.0f} s (log: {log_file})")
+                time.sleep(0.1)
+            yield url
+        finally:
+            if process.poll() is None:
+                process.terminate()
+                try:
+                    process.wait(timeout=15)
+                except subprocess.TimeoutExpired:
+                    process.kill()
+                    process.wait(timeout=5)

@@ -1,0 +1,105 @@
+"""Bad input gives one clear error; a video without objects gives an empty, valid result."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from dataclasses import replace
+from fractions import Fraction
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from perception.background import estimate_background
+from perception.pipeline import perceive
+from perception.video import camera_from_mapping, load_camera, read_video
+
+DATA = Path(__file__).resolve().parents[1] / "data" / "synth"
+TRUTH = DATA / "ground_truth" / "scene_00000.json"
+
+
+def _write_video(path: Path, frames: np.ndarray) -> None:
+    import av
+
+    with av.open(str(path), mode="w") as container:
+        stream = container.add_stream("libx264", rate=Fraction(25))
+        stream.width, stream.height, stream.pix_fmt = frames.shape[2], frames.shape[1], "yuv420p"
+        for image in frames:
+            container.mux(stream.encode(av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24")))
+        container.mux(stream.encode())
+
+
+@pytest.fixture(scope="module")
+def floor_video(tmp_path_factory) -> Path:
+    """16 frames of the fixture's floor (its smooth floor model) with sensor-like noise, no objects."""
+    frames, _ = read_video(DATA / "videos" / "video_00001.mp4", max_frames=32)
+    floor = estimate_background(frames).floor_fit
+    rng = np.random.default_rng(0)
+    video = np.clip(floor[None] + rng.normal(0, 1.5, (16,) + floor.shape), 0, 255).astype(np.uint8)
+    path = tmp_path_factory.mktemp("floor") / "floor.mp4"
+    _write_video(path, video)
+    return path
+
+
+def test_video_without_objects_gives_empty_valid_observations(floor_video):
+    observations = perceive(floor_video, load_camera(TRUTH))
+    assert observations.objects == ()
+    assert observations.num_frames == 16
+    from perception.cli import observations_document
+
+    document = json.loads(json.dumps(observations_document(observations)))
+    assert document["objects"] == [] and document["num_frames"] == 16 and document["camera"]["fx"] > 0
+
+
+def test_cli_writes_observations_and_debug_sheet(floor_video, tmp_path):
+    from perception.cli import register
+
+    parser = argparse.ArgumentParser()
+    register(parser.add_subparsers())
+    out = tmp_path / "obs.json"
+    args = parser.parse_args(["perceive", str(floor_video), "--camera", str(TRUTH), "-o", str(out),
+                              "--debug-dir", str(tmp_path / "dbg"), "--quiet"])
+    assert args.handler(args) == 0
+    document = json.loads(out.read_text())
+    assert document["objects"] == [] and document["camera"]["width"] == 480
+    assert (tmp_path / "dbg" / "contact_sheet.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    "make, error, words",
+    [
+        (lambda d: d / "missing.mp4", FileNotFoundError, "no such video"),
+        (lambda d: (d / "junk.mp4").write_bytes(b"not a video at all" * 50) and d / "junk.mp4", ValueError, "not a readable video"),
+        (lambda d: (d / "empty.mp4").write_bytes(b"") == 0 and d / "empty.mp4", ValueError, "video"),
+        (lambda d: d, ValueError, "directory"),
+    ],
+)
+def test_bad_video_is_a_clear_error(tmp_path, make, error, words):
+    with pytest.raises(error, match=words):
+        perceive(make(tmp_path), load_camera(TRUTH))
+
+
+def test_wrong_resolution_for_the_camera(floor_video):
+    camera = replace(load_camera(TRUTH), width=640, cx=319.5)
+    with pytest.raises(ValueError, match="640x320 does not match the video's 480x320"):
+        perceive(floor_video, camera)
+
+
+def test_missing_camera_file(tmp_path):
+    with pytest.raises(FileNotFoundError, match="no such camera file"):
+        load_camera(tmp_path / "camera.json")
+
+
+@pytest.mark.parametrize("field, value", [("fx", None), ("width", 0), ("position", [0, 1]), ("rotation", [[1, 0, 0]]), ("convention", "opengl")])
+def test_bad_camera_field_is_named(field, value):
+    document = json.loads(TRUTH.read_text())["camera"]
+    document[field] = value
+    with pytest.raises(ValueError, match=field):
+        camera_from_mapping(document)
+
+
+def test_bare_camera_and_ground_truth_file_agree(tmp_path):
+    bare = tmp_path / "camera.json"
+    bare.write_text(json.dumps(json.loads(TRUTH.read_text())["camera"]))
+    assert load_camera(bare) == load_camera(TRUTH)

@@ -1,0 +1,201 @@
+"""The offline program executor over HTTP, checked against the engine run directly in the test.
+
+The expected answers come from ``world.rollout.simulate`` called here, in-process,
+on the same world the server hosts: the executor must reach them through the HTTP
+tools only (list_events, simulate_edit, compare_rollouts, check_contact).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import math
+
+import pytest
+
+from planner.executor import COLLISION_DEBOUNCE_SECONDS, ExecutorConfig, VideoExecutor, clevrer_events
+from planner.program import EventRecord, ProgramScene, causal_ancestors
+
+COLOR = {0: "red", 1: "blue", 2: "green", 3: "yellow", 4: "purple", 5: "gray"}  # six_object_world
+
+
+def _collision_pairs(rollout, below: int | None = None, at_least: int | None = None) -> set[tuple[int, int]]:
+    return {tuple(sorted(e.bodies)) for e in rollout.events if e.kind == "collision"
+            and (below is None or e.frame < below) and (at_least is None or e.frame >= at_least)}
+
+
+def _pair_text(a: int, b: int) -> str:
+    return f"The {COLOR[a]} object collides with the {COLOR[b]} object"
+
+
+@pytest.fixture()
+def six(tool_client, six_document):
+    world = tool_client.create_world(six_document)
+    return VideoExecutor(world)
+
+
+@pytest.mark.parametrize("removed", [0, 1, 2, 3, 4, 5])
+@pytest.mark.parametrize("negated", [False, True])
+def test_counterfactual_verdicts_match_engine_replays(six, six_world, removed, negated):
+    from world.rollout import simulate
+    from world.types import Edit
+
+    replay = simulate(six_world, [Edit("remove_object", removed)])
+    expected_pairs = _collision_pairs(replay, below=six_world.observed_frames)
+    pairs = list(itertools.combinations([i for i in range(6) if i != removed], 2))
+    question = f"Which of the following will {'not ' if negated else ''}happen if the {COLOR[removed]} object is removed?"
+    answer = six.answer_text(question, [_pair_text(a, b) for a, b in pairs])
+    expected = ["correct" if ((a, b) in expected_pairs) != negated else "wrong" for a, b in pairs]
+    assert answer.error is None
+    assert answer.verdicts == expected
+    edits = [c for c in six.world.calls if c.tool == "simulate_edit" and c.arguments.get("edit_type") == "remove_object"]
+    assert [c.arguments["object_id"] for c in edits] == [removed]
+    assert {c.index for c in edits} <= set(answer.tool_calls)
+
+
+def test_one_replay_per_removed_object_reused_across_questions(six):
+    first = six.answer_text("Which of the following will happen if the blue object is removed?", [_pair_text(0, 2)])
+    second = six.answer_text("Which of the following will not happen if the blue object is removed?", [_pair_text(2, 3), _pair_text(0, 2)])
+    removals = [c for c in six.world.calls if c.tool == "simulate_edit" and c.arguments.get("edit_type") == "remove_object"]
+    assert len(removals) == 1
+    # Removing blue (1) lets red (0) reach green (2) directly: a collision that never happened.
+    assert first.verdicts == ["correct"]
+    assert second.verdicts == ["wrong", "wrong"]
+
+
+def test_trajectory_only_ablation_answers_from_factual_events(tool_client, six_document, six_world):
+    """Without execution, a collision that only the replay produces cannot be predicted."""
+    from world.rollout import simulate
+
+    world = tool_client.create_world(six_document)
+    ablation = VideoExecutor(world, ExecutorConfig(mode="trajectory_only"))
+    pairs = [(0, 2), (2, 3), (3, 4), (0, 3)]
+    answer = ablation.answer_text("Which of the following will happen if the blue object is removed?", [_pair_text(a, b) for a, b in pairs])
+    factual = _collision_pairs(simulate(six_world), below=128)
+    assert answer.verdicts == ["correct" if p in factual and 1 not in p else "wrong" for p in pairs]
+    assert answer.verdicts[0] == "wrong"  # (0, 2) only collides when the world is replayed without blue
+    assert not any(c.tool == "simulate_edit" for c in world.calls)
+    assert answer.method == "trajectory_only"
+
+
+def test_explanatory_verdicts_follow_the_causal_traces(six, six_world):
+    from world.rollout import simulate
+
+    rollout = simulate(six_world)
+    events = tuple(EventRecord(e.kind, tuple(e.bodies), e.frame) for e in rollout.events if e.kind in ("collision", "in", "out"))
+    scene = ProgramScene(objects=(), events=events)
+    target = EventRecord("collision", (3, 4), next(e.frame for e in events if e.objects == (3, 4)))
+    causes = causal_ancestors(scene, target)
+    responsible = {o for e in causes for o in e.objects}
+    choices = [f"the presence of the {COLOR[i]} object" for i in range(6)]
+    choices += ["the purple object's entrance", "the collision between the red object and the blue object",
+                "the gray object's exiting the scene"]
+    truth = ["correct" if i in responsible else "wrong" for i in range(6)]
+    truth += ["correct" if any(e.kind == "in" and e.objects == (4,) for e in causes) else "wrong",
+              "correct" if any(e.kind == "collision" and e.objects == (0, 1) for e in causes) else "wrong",
+              "correct" if any(e.kind == "out" and e.objects == (5,) for e in causes) else "wrong"]
+    answer = six.answer_text("Which of the following is responsible for the collision between the yellow object and the purple object?", choices)
+    assert answer.verdicts == truth
+    assert truth.count("correct") >= 3 and "wrong" in truth  # the chain makes several causes, the gray sphere none
+    negated = six.answer_text("Which of the following is not responsible for the collision between the yellow object and the purple object?", choices)
+    assert negated.verdicts == ["wrong" if t == "correct" else "correct" for t in truth]
+
+
+def test_an_event_the_world_does_not_contain_is_not_a_cause(six):
+    question = "Which of the following is responsible for the collision between the yellow object and the purple object?"
+    answer = six.answer_text(question, ["the collision between the red object and the gray object"])
+    assert answer.verdicts == ["wrong"]
+    assert "does not occur" in answer.choices[0].facts[0]
+    negated = six.answer_text(question.replace("is responsible", "is not responsible"), ["the collision between the red object and the gray object"])
+    assert negated.verdicts == ["correct"]
+
+
+def _slow_world():
+    """Two slow pairs that collide after the video: ~frame 140 (inside the base horizon) and ~frame 165 (beyond it)."""
+    from world.camera import look_at_camera
+    from world.types import Body, BodyState, Shape, World
+
+    cube = Shape("cube", half_extent=0.2)
+    bodies = (
+        Body(0, cube, BodyState((-2.0, 0.0, 0.2), (0.30, 0.0, 0.0)), friction=0.001, color="red", material="metal"),
+        Body(1, cube, BodyState((0.0, 0.0, 0.2)), friction=0.001, color="blue", material="rubber"),
+        Body(2, cube, BodyState((-2.0, 2.0, 0.2), (0.275, 0.0, 0.0)), friction=0.001, color="green", material="metal"),
+        Body(3, cube, BodyState((0.0, 2.0, 0.2)), friction=0.001, color="yellow", material="rubber"),
+    )
+    return World(bodies=bodies, fps=25.0, observed_frames=128, camera=look_at_camera((0.0, -9.0, 6.0), (0.0, 1.0, 0.0)), id="slow-pairs")
+
+
+def test_predictive_uses_the_continuation_beyond_the_base_horizon(tool_client):
+    from world.io import world_to_dict
+    from world.rollout import default_horizon, simulate
+
+    world = _slow_world()
+    horizon = math.ceil(128 * 1.4)
+    future = _collision_pairs(simulate(world, horizon_frames=horizon), at_least=128)
+    frames = sorted(e.frame for e in simulate(world, horizon_frames=horizon).events if e.kind == "collision")
+    assert any(default_horizon(world) <= f < horizon for f in frames), frames  # the test needs a late collision
+    executor = VideoExecutor(tool_client.create_world(world_to_dict(world)))
+    names = {0: "red", 1: "blue", 2: "green", 3: "yellow"}
+    pairs = list(itertools.combinations(range(4), 2))
+    answer = executor.answer_text("Which event will happen next?", [f"The {names[a]} cube collides with the {names[b]} cube" for a, b in pairs])
+    assert answer.verdicts == ["correct" if p in future else "wrong" for p in pairs]
+    assert {(0, 1), (2, 3)} == future
+    continuation = [c for c in executor.world.calls if c.tool == "simulate_edit"]
+    assert len(continuation) == 1 and continuation[0].arguments["horizon_frames"] == horizon
+    # Every collision option is corroborated by check_contact on that rollout.
+    checks = [c for c in executor.world.calls if c.tool == "check_contact"]
+    assert len(checks) == len(pairs)
+    assert all(c.arguments["rollout_id"] == continuation[0].digest["rollout_id"] for c in checks)
+
+
+def test_answers_carry_evidence_that_points_at_real_calls(six):
+    answer = six.answer_text("Which of the following will happen if the blue object is removed?", [_pair_text(0, 2), _pair_text(4, 5)])
+    calls = six.world.calls
+    assert answer.tool_calls and all(0 <= i < len(calls) for i in answer.tool_calls)
+    assert [calls[i].tool for i in answer.tool_calls][:2] == ["get_world_summary", "list_events"]
+    for choice in answer.choices:
+        assert choice.facts, choice
+        assert any("check_contact" in f for f in choice.facts)
+        assert all(calls[i].tool == "check_contact" for i in choice.tool_calls)
+    assert any("removed" in f and "rollout" in f for f in answer.facts)
+    document = json.loads(json.dumps(answer.to_dict(calls)))
+    assert [c["tool"] for c in document["tool_call_log"]] == [calls[i].tool for i in answer.tool_calls]
+    assert [g["status"] for g in document["groundings"]] == ["unique"] * len(document["groundings"])
+
+
+def test_unparsed_texts_are_reported_not_guessed(six):
+    answer = six.answer_text("Why did the red object stop?", ["because"])
+    assert answer.verdicts == [None] and "not parsed" in answer.error
+    answer = six.answer_text("Which of the following will happen if the blue object is removed?", [_pair_text(0, 2), "The red object flies away"])
+    assert answer.verdicts[0] == "correct" and answer.verdicts[1] is None
+    assert "not parsed" in answer.choices[1].error
+
+
+def _record(kind, objects, frame):
+    return {"kind": kind, "objects": list(objects), "frame": frame}
+
+
+@pytest.mark.parametrize(
+    "records, expected",
+    [
+        # A touch reported twice within the debounce window is one collision.
+        ([_record("collision", (0, 1), 10), _record("collision", (0, 1), 12)], [("collision", (0, 1), 10)]),
+        # Contact again after more than 0.2 s (5 frames at 25 fps) is a new collision.
+        ([_record("collision", (0, 1), 10), _record("collision", (0, 1), 16)], [("collision", (0, 1), 10), ("collision", (0, 1), 16)]),
+        # A chain of contacts within the window keeps extending it.
+        ([_record("collision", (1, 0), 10), _record("collision", (0, 1), 14), _record("collision", (0, 1), 18)], [("collision", (0, 1), 10)]),
+        # Other pairs and kinds are independent; stop events are not CLEVRER events; exact duplicates merge.
+        ([_record("collision", (0, 1), 10), _record("collision", (1, 2), 11), _record("stop", (0,), 12), _record("in", (3,), 12), _record("in", (3,), 12)],
+         [("collision", (0, 1), 10), ("collision", (1, 2), 11), ("in", (3,), 12)]),
+    ],
+)
+def test_clevrer_events_merge_one_touch_into_one_collision(records, expected):
+    assert COLLISION_DEBOUNCE_SECONDS == 0.2
+    assert [(e.kind, e.objects, e.frame) for e in clevrer_events(records, fps=25.0)] == expected
+
+
+def test_executor_config_rejects_bad_values():
+    with pytest.raises(ValueError, match="mode"):
+        ExecutorConfig(mode="guess")  # type: ignore[arg-type]
+    with pytest.raises(ValueError, match="prediction_horizon_frames"):
+        ExecutorConfig(prediction_horizon_frames=0)

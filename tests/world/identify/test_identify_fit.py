@@ -1,0 +1,135 @@
+"""Identification: recovering parameters, fitting MuJoCo scenes, errors.
+
+Two kinds of checks, kept apart on purpose:
+* noiseless tracks made by our own engine test the OPTIMISER (it must find
+  the parameters that made them);
+* the generator's MuJoCo fixtures test the MODEL against an independent
+  physics engine (bounds are stated, not tuned to one scene).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bench.metrics import GroundTruth, rollout_collisions
+from world.identify.fit import FitConfig, identify
+from world.identify.observations import ObjectTrack, Observations, default_shape
+from world.rollout import simulate
+from world.types import Body, BodyState, Edit, World
+
+FIXTURES = Path(__file__).resolve().parents[2] / "data" / "synth"
+
+
+def _body(body_id, kind, xy, velocity, mass, friction, color, material="rubber"):
+    shape = default_shape(kind)
+    return Body(
+        body_id, shape, BodyState((xy[0], xy[1], shape.rest_height), (velocity[0], velocity[1], 0.0)),
+        mass=mass, friction=friction, restitution=0.75, color=color, material=material,
+    )
+
+
+def _observe(world: World, frames: int) -> Observations:
+    rollout = simulate(world, horizon_frames=frames)
+    tracks = []
+    for k, body in enumerate(world.bodies):
+        tracks.append(
+            ObjectTrack(body.id, body.shape, np.arange(frames), rollout.positions[:, k], rollout.yaw[:, k],
+                        np.ones(frames, bool), np.ones(frames), body.color, body.material)
+        )
+    return Observations(tuple(tracks), world.fps, frames)
+
+
+CHAIN = World(
+    (
+        _body(0, "cylinder", (-2.2, 0.02), (3.2, 0.0), 1.0, 0.08, "red"),
+        _body(1, "sphere", (-0.6, 0.0), (0.0, 0.0), 2.5, 0.06, "blue", "metal"),
+        _body(2, "cylinder", (0.7, 0.1), (0.0, 0.0), 1.2, 0.1, "green"),
+        _body(3, "cube", (1.0, 2.0), (0.0, 0.0), 1.0, 0.07, "yellow"),
+    ),
+    observed_frames=100,
+)
+GLANCING = World(
+    (
+        _body(0, "cylinder", (-1.5, -0.25), (2.5, 0.1), 1.0, 0.09, "red"),
+        _body(1, "cylinder", (0.0, 0.0), (0.0, 0.0), 0.5, 0.05, "cyan"),
+    ),
+    observed_frames=80,
+)
+
+
+@pytest.mark.parametrize("world", [CHAIN, GLANCING], ids=["chain", "glancing"])
+def test_recovers_parameters_from_noiseless_engine_tracks(world):
+    fitted, report = identify(_observe(world, world.observed_frames))
+    truth_events = [(e.bodies, e.frame) for e in simulate(world).events if e.kind == "collision"]
+    assert truth_events, "the scene must contain collisions to identify"
+    for true, fit in zip(world.bodies, fitted.bodies):
+        np.testing.assert_allclose(fit.initial.position[:2], true.initial.position[:2], atol=2e-3)
+        np.testing.assert_allclose(fit.initial.velocity[:2], true.initial.velocity[:2], atol=2e-2)
+        if "friction" in report.objects[true.id].identified:
+            assert fit.friction == pytest.approx(true.friction, rel=0.05)
+    # Mass ratios and restitution of every observed collision.
+    for (a, b), _ in truth_events:
+        true_ratio = world.body(a).mass / world.body(b).mass
+        assert fitted.body(a).mass / fitted.body(b).mass == pytest.approx(true_ratio, rel=0.05)
+    for a, b, e in fitted.pair_restitution:
+        assert e == pytest.approx(0.75, abs=0.03)
+    replay = [(e.bodies, e.frame) for e in simulate(fitted).events if e.kind == "collision"]
+    assert replay == truth_events
+    assert report.rmse < 1e-3
+
+
+@pytest.fixture(scope="module")
+def fixture_fits():
+    fits = []
+    for annotation in sorted((FIXTURES / "annotations").glob("annotation_*.json")):
+        index = annotation.stem.split("_")[-1]
+        truth = GroundTruth.load(FIXTURES / "ground_truth" / f"scene_{index}.json")
+        observations = Observations.from_clevrer_annotation(annotation, camera=truth.camera)
+        world, report = identify(observations)
+        fits.append((observations, truth, world, report))
+    assert len(fits) >= 10, "the fixture set is missing"
+    return fits
+
+
+# Bound stated in docs/identification.md: oracle tracks of MuJoCo scenes are
+# fitted to a median per-object RMSE under 1 cm, and no scene's RMSE over
+# visible frames exceeds 10 cm (spinning, rolling and multi-contact pushes
+# are outside the analytic model).
+MEDIAN_OBJECT_RMSE = 0.01
+WORST_SCENE_RMSE = 0.10
+
+
+def test_fixture_scenes_fit_within_stated_bounds(fixture_fits):
+    object_rmse = [o.rmse for _, _, _, report in fixture_fits for o in report.objects if o.observed_frames > 0]
+    assert np.median(object_rmse) < MEDIAN_OBJECT_RMSE
+    for observations, truth, world, report in fixture_fits:
+        assert report.rmse < WORST_SCENE_RMSE, f"scene {truth.scene_index}: rmse {report.rmse:.3f} m"
+
+
+def test_a_removal_removes_a_downstream_collision_as_in_mujoco(fixture_fits):
+    """Some removal deletes a collision between two OTHER bodies, in MuJoCo and in our replay alike."""
+    confirmed = []
+    for _, truth, world, _ in fixture_fits:
+        factual = {pair for pair, _ in rollout_collisions(simulate(world, horizon_frames=truth.horizon_frames))}
+        true_factual = {pair for pair, _ in truth.collisions}
+        for removed, true_events in truth.counterfactual.items():
+            if removed not in world.body_ids:
+                continue
+            true_gone = {p for p in true_factual - {p for p, _ in true_events} if removed not in p}
+            if not true_gone:
+                continue
+            replay = simulate(world, (Edit("remove_object", removed),), truth.horizon_frames)
+            ours_gone = {p for p in factual - {p for p, _ in rollout_collisions(replay)} if removed not in p}
+            confirmed += [(truth.scene_index, removed, pair) for pair in true_gone & ours_gone]
+    assert confirmed, "no downstream collision removal reproduced"
+
+
+def test_fit_report_says_what_was_defaulted():
+    lone = World((_body(0, "cube", (0.0, 0.0), (0.0, 0.0), 1.0, 0.1, "gray"),), observed_frames=30)
+    fitted, report = identify(_observe(lone, 30), FitConfig(friction_prior=0.123))
+    assert fitted.bodies[0].friction == pytest.approx(0.123)
+    assert "friction" in report.objects[0].defaulted and "mass" in report.objects[0].defaulted
+    assert fitted.provenance["fit"]["objects"][0]["defaulted"]["friction"]

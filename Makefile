@@ -19,7 +19,7 @@ test: $(STAMP)
 	$(PY) -m pytest -q
 
 demo: $(STAMP)
-	$(PY) -m server.cli demo
+	$(PY) -m server.cli demo --out out/demo
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

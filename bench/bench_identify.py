@@ -64,8 +64,17 @@ def _simulator(method: str):
 
 
 def evaluate(task: tuple[Path, float, str]) -> dict:
-    """Fit and score one (scene, noise, method); returns plain numbers."""
+    """Fit and score one (scene, noise, method); a failure is a row too, never a crash."""
     annotation, noise, method = task
+    try:
+        return _evaluate(annotation, noise, method)
+    except Exception as error:  # noqa: BLE001 - the table reports failures
+        index = int(annotation.stem.split("_")[-1])
+        return {"scene": index, "noise": noise, "method": method, "error": f"{type(error).__name__}: {error}"}
+
+
+def _evaluate(annotation: Path, noise: float, method: str) -> dict:
+    """Fit and score one (scene, noise, method); returns plain numbers."""
     index = annotation.stem.split("_")[-1]
     truth = GroundTruth.load(annotation.parent.parent / "ground_truth" / f"scene_{index}.json")
     clean = Observations.from_clevrer_annotation(annotation, camera=truth.camera)
@@ -109,7 +118,7 @@ def _sum(rows: list[dict], key: str) -> PrecisionRecall:
 
 def summarise(rows: list[dict]) -> list[str]:
     header = (
-        f"{'method':<9} {'noise':>5} {'scenes':>6} | {'RMSE med':>8} {'p95':>6} (cm) | "
+        f"{'method':<11} {'noise':>5} {'scenes':>7}| {'RMSE med':>8} {'p95':>6} (cm) | "
         f"{'pred P':>6} {'R':>5} {'F1':>5} | {'F1 seen':>7} | {'CF F1':>5} {'micro':>5} | "
         f"{'obs F1':>6} | {'fit s med':>9} {'p95':>6}"
     )
@@ -117,7 +126,9 @@ def summarise(rows: list[dict]) -> list[str]:
     groups: dict[tuple[str, float], list[dict]] = {}
     for row in rows:
         groups.setdefault((row["method"], row["noise"]), []).append(row)
-    for (method, noise), group in sorted(groups.items()):
+    for (method, noise), everything in sorted(groups.items()):
+        group = [r for r in everything if "error" not in r]
+        failed = len(everything) - len(group)
         rmse = np.array([r["rmse"] for r in group]) * 100
         seconds = np.array([r["seconds"] for r in group])
         predictive, seen, observed = _sum(group, "predictive"), _sum(group, "predictive_seen"), _sum(group, "observed")
@@ -127,10 +138,14 @@ def summarise(rows: list[dict]) -> list[str]:
             for c in r["counterfactual"]:
                 cf_micro = cf_micro + PrecisionRecall(*c)
         lines.append(
-            f"{method:<9} {noise * 100:>4.0f}% {len(group):>6} | {np.nanmedian(rmse):>8.2f} {np.nanpercentile(rmse, 95):>6.2f}      | "
+            f"{method:<11} {noise * 100:>4.0f}% {len(group):>4}{'' if not failed else f'+{failed}F':<3}| {np.nanmedian(rmse):>8.2f} {np.nanpercentile(rmse, 95):>6.2f}      | "
             f"{predictive.precision:>6.3f} {predictive.recall:>5.3f} {predictive.f1:>5.3f} | {seen.f1:>7.3f} | "
             f"{np.mean(cf):>5.3f} {cf_micro.f1:>5.3f} | {observed.f1:>6.3f} | {np.median(seconds):>9.2f} {np.percentile(seconds, 95):>6.2f}"
         )
+    failures = [r for r in rows if "error" in r]
+    if failures:
+        lines.append(f"failed fits ('F' above): {len(failures)}")
+        lines += [f"  scene {r['scene']} noise {r['noise']} {r['method']}: {r['error']}" for r in failures[:10]]
     return lines
 
 

@@ -55,7 +55,8 @@ def _touches_border(mask: np.ndarray) -> bool:
 
 def evaluate_scene(root: Path, index: int, e2e: bool) -> dict:
     from perception.pipeline import instance_map, perceive_frames
-    from perception.video import load_camera, read_video
+    from perception.video import read_video
+    from world.io import load_camera
     from world.identify.observations import Observations
 
     name = f"{index:05d}"

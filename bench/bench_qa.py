@@ -24,7 +24,6 @@ import argparse
 import json
 import statistics
 import sys
-import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
@@ -94,6 +93,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cache", type=Path, default=None,
                         help="reuse/store built worlds in CACHE/<source>/ (default: no cache, every world is built)")
     parser.add_argument("--skip-video", action="store_true", help="do not run row (a) even if perception exists")
+    parser.add_argument("--video-limit", type=int, default=None,
+                        help="row (a) on the first N scenes only (perception takes ~1 min per video); (b) and (c) are repeated on them")
     parser.add_argument("--json", type=Path, default=None, help="write every answer with its evidence here")
     args = parser.parse_args(argv)
 
@@ -101,35 +102,49 @@ def main(argv: list[str] | None = None) -> int:
     overlap = fixture_overlap(entries)
     n_questions = sum(len(e.questions) for e in entries)
     print(f"# {len(entries)} scenes, {n_questions} questions from {args.data}; scenes identical to a test fixture: {overlap}")
-    rows, costs, reports = {}, [], {}
-    sources = ["annotation"]
-    if not args.skip_video and perception_available():
-        sources.insert(0, "video")
-    elif not args.skip_video:
+    reports, costs, tables = {}, [], []
+    run_video = not args.skip_video and perception_available()
+    if not args.skip_video and not run_video:
         print("# row (a) from video skipped: perception/pipeline.py is not available")
+    video_entries = entries[: args.video_limit] if args.video_limit else entries
 
     with local_server() as url, ToolClient(url) as client:
-        for source in sources:
+        built = {}
+        for source, subset in [("annotation", entries)] + ([("video", video_entries)] if run_video else []):
             cache = None if args.cache is None else args.cache / source
-            started = time.perf_counter()
-            worlds, infos = build_worlds(entries, source, args.workers, cache, progress=True)
-            build_wall = time.perf_counter() - started
-            modes = ["execute"] if source == "video" else ["execute", "trajectory_only"]
-            for mode in modes:
-                result = evaluate(entries, worlds, client, ExecutorConfig(mode=mode), progress=True, build_info=infos)
-                label = {("video", "execute"): "(a) from video",
-                         ("annotation", "execute"): "(b) oracle tracks",
-                         ("annotation", "trajectory_only"): "(c) trajectory-only (no execution)"}[(source, mode)]
-                rows[label] = result.table()
-                costs.append(_cost_line(label, infos if mode == "execute" else {}, result))
-                reports[label] = result.to_dict(label, {"source": source, "mode": mode, "build_wall_seconds": round(build_wall, 1)})
-    rows["random guess (expected)"] = random_row(entries)
+            built[source] = build_worlds(subset, source, args.workers, cache, progress=True)
 
-    print()
-    print(format_table(rows))
+        def run(label: str, source: str, mode: str, subset) -> dict:
+            worlds, infos = built[source]
+            infos = {k: v for k, v in infos.items() if k in {e.scene_index for e in subset}}
+            result = evaluate(subset, worlds, client, ExecutorConfig(mode=mode), progress=True, build_info=infos)
+            costs.append(_cost_line(label, infos if mode == "execute" else {}, result))
+            reports[label] = result.to_dict(label, {"source": source, "mode": mode, "scenes": len(subset)})
+            return result.table()
+
+        main_rows = {"(b) oracle tracks": run("(b) oracle tracks", "annotation", "execute", entries),
+                     "(c) trajectory-only (no execution)": run("(c) trajectory-only (no execution)", "annotation", "trajectory_only", entries),
+                     "random guess (expected)": random_row(entries)}
+        tables.append((f"all {len(entries)} scenes", main_rows))
+        if run_video:
+            n = len(video_entries)
+            video_rows = {"(a) from video": run(f"(a) from video [{n} scenes]", "video", "execute", video_entries)}
+            if n != len(entries):
+                video_rows["(b) oracle tracks, same scenes"] = run(f"(b) oracle tracks [{n} scenes]", "annotation", "execute", video_entries)
+                video_rows["(c) trajectory-only, same scenes"] = run(f"(c) trajectory-only [{n} scenes]", "annotation", "trajectory_only", video_entries)
+                video_rows["random guess (expected)"] = random_row(video_entries)
+            tables.append((f"from video: the first {n} scenes", video_rows))
+
+    for title, rows in tables:
+        print(f"\n## {title}")
+        print(format_table(rows))
     print()
     for line in costs:
         print(line)
+    for label, report in reports.items():
+        failures = sorted({r["scene_index"] for r in report["answers"] if r["answer"] is None})
+        if failures:
+            print(f"{label}: {len(failures)} scenes without answers (build or server failure): {failures}")
     undecided = {label: sum(1 for r in report["answers"] for v in r["verdicts"] if v is None) for label, report in reports.items()}
     print("undecided options (counted wrong): " + ", ".join(f"{k}: {v}" for k, v in undecided.items()))
     if args.json:

@@ -13,6 +13,7 @@ from typing import Iterable, Mapping, Sequence
 
 import numpy as np
 
+from world.io import camera_from_dict
 from world.types import Camera, Edit, Rollout, World
 
 EVENT_TOLERANCE_FRAMES = 5  # DESIGN.md: event precision/recall tolerance
@@ -98,12 +99,7 @@ class GroundTruth:
                 (tuple(sorted(e["object_ids"])), int(e["frame_id"])) for e in events if e["kind"] == "collision"
             )
 
-        camera_doc = document["camera"]
-        camera = Camera(
-            width=camera_doc["width"], height=camera_doc["height"], fx=camera_doc["fx"], fy=camera_doc["fy"],
-            cx=camera_doc["cx"], cy=camera_doc["cy"], position=tuple(camera_doc["position"]),
-            rotation=tuple(tuple(row) for row in camera_doc["rotation"]),
-        )
+        camera = camera_from_dict(document["camera"])
         objects = document["trajectory"]["objects"]
         return cls(
             scene_index=int(document["scene_index"]),

@@ -24,37 +24,16 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.set_defaults(handler=run)
 
 
-def observations_document(observations) -> dict:
-    """The observations.json document (the layout of Observations.to_dict / from_dict), camera included.
-
-    Written here because world.identify's to_dict needs world.io.camera_to_dict, which world.io lacks so far.
-    """
-    import math
-
-    from perception.video import camera_to_mapping
-
-    objects = []
-    for track in observations.objects:
-        shape = {"kind": track.shape.kind, "radius": track.shape.radius, "half_extent": track.shape.half_extent,
-                 "half_height": track.shape.half_height}
-        frames = [{"frame": int(f), "position": [float(v) for v in p], "yaw": None if math.isnan(y) else float(y),
-                   "visible": bool(vis), "weight": float(w)}
-                  for f, p, y, vis, w in zip(track.frames, track.positions, track.yaw, track.visible, track.weights)]
-        objects.append({"id": int(track.id), "color": track.color, "material": track.material, "shape": shape, "frames": frames})
-    return {"fps": float(observations.fps), "num_frames": int(observations.num_frames),
-            "camera": camera_to_mapping(observations.camera) if observations.camera else None,
-            "source": dict(observations.source), "objects": objects}
-
-
 def run(args: argparse.Namespace) -> int:
     from perception.pipeline import perceive_frames
-    from perception.video import load_camera, read_video
+    from perception.video import read_video
+    from world.io import load_camera
 
     camera = load_camera(args.camera)
     frames, fps = read_video(args.video)
     observations, intermediates = perceive_frames(frames, camera, fps=fps, progress=not args.quiet)
     args.output.parent.mkdir(parents=True, exist_ok=True)
-    args.output.write_text(json.dumps(observations_document(observations), indent=1))
+    args.output.write_text(json.dumps(observations.to_dict(), indent=1))
     print(f"{len(observations.objects)} objects -> {args.output}")
     for track in observations.objects:
         print(f"  object {track.id}: {track.color} {track.material} {track.shape.kind}, frames {int(track.frames[0])}-{int(track.frames[-1])}")

@@ -74,7 +74,7 @@ def load_camera(path: Path):
         document = json.loads(Path(path).read_text())
     except json.JSONDecodeError as error:
         raise ValueError(f"{path}: not valid JSON ({error.msg} at line {error.lineno})") from None
-    return camera_from_document(document, where=str(path))
+    return camera_from_document(document, where=f"camera file {path}")
 
 
 def json_safe(value: Any) -> Any:

@@ -296,7 +296,12 @@ def evaluate(entries: Sequence[VideoEntry], worlds: Mapping[int, Mapping[str, An
                 result.records.append(QuestionRecord(entry.scene_index, question.get("question_id"), str(question.get("question_type")),
                                                      tuple(truth_of(question)), None, (), f"no world: {reason}"))
             continue
-        records, seconds = ask_video(client, world, entry, config)
+        try:
+            records, seconds = ask_video(client, world, entry, config)
+        except ToolCallError as failure:  # e.g. the server refuses the world: its questions score wrong
+            records, seconds = [QuestionRecord(entry.scene_index, question.get("question_id"), str(question.get("question_type")),
+                                               tuple(truth_of(question)), None, (), f"world not served: {failure}")
+                                for question in entry.questions], 0.0
         result.records.extend(records)
         result.answer_seconds[entry.scene_index] = seconds
     return result

@@ -36,7 +36,7 @@ from planner.client import ToolCallError, WorldHandle
 from planner.grammar import ParseError
 from planner.grounding import Grounding, WorldObject, failed, ground_program, objects_from_summary
 from planner.parser import parse_choice, parse_question
-from planner.program import EventRecord, ObjectRecord, ProgramError, ProgramScene, execute
+from planner.program import EventRecord, ObjectRecord, ProgramError, ProgramScene, causal_ancestors, execute
 
 Mode = Literal["execute", "trajectory_only"]
 MODES: tuple[str, ...] = ("execute", "trajectory_only")
@@ -281,6 +281,10 @@ class VideoExecutor:
                     events, rollout_id, calls, note = self.counterfactual(removed)
                     shared_calls.extend(calls)
                     facts.append(note)
+                targets = _explained_event_candidates(program, scene)
+                if targets is not None and len(targets) > 1:
+                    return self._answer_each_occurrence(question, question_type, program, choices, scene, targets,
+                                                        groundings, shared_calls, facts, method, started)
                 reference, reference_fact = self._reference_list(program, scene)
                 if reference_fact:
                     facts.append(reference_fact)
@@ -298,6 +302,32 @@ class VideoExecutor:
         distinct = tuple({(g.reference, g.object_ids): g for g in all_groundings}.values())
         return Answer(question, question_type, program, tuple(answers), method=method, groundings=distinct,
                       facts=tuple(facts), tool_calls=tuple(used), seconds=time.perf_counter() - started)
+
+    def _answer_each_occurrence(self, question, question_type, program, choices, scene, targets, groundings, shared_calls,
+                                facts, method, started) -> Answer:
+        """The explained event occurs several times in the world (the question names it as one): answer
+        for each occurrence's causes; an option is decided only when every occurrence gives the same verdict."""
+        per_target = []
+        for target in targets:
+            causes = causal_ancestors(scene, target)
+            reference = tuple(e for e in scene.events if e in causes)
+            per_target.append((target, reference))
+            facts.append(f"causes of the {describe_event(target)}: " + (", ".join(describe_event(e) for e in reference) or "none"))
+        facts.insert(0, f"the explained event occurs {len(targets)} times in the world; an option is decided when all occurrences agree")
+        answers, all_groundings = [], list(groundings)
+        for k, (text, choice_program, parse_error) in enumerate(choices):
+            options = [self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
+                                           None, all_groundings, membership_only=True) for _, reference in per_target]
+            verdicts = {o.verdict for o in options}
+            if len(verdicts) == 1:
+                merged = options[0].facts + tuple(f for o in options[1:] for f in o.facts if f not in options[0].facts)
+                answers.append(ChoiceAnswer(k, text, options[0].program, options[0].verdict, facts=merged, error=options[0].error))
+            else:
+                answers.append(ChoiceAnswer(k, text, options[0].program, None, facts=tuple(f for o in options for f in o.facts),
+                                            error="the occurrences of the explained event disagree on this option"))
+        distinct = tuple({(g.reference, g.object_ids): g for g in all_groundings}.values())
+        return Answer(question, question_type, program, tuple(answers), method=method, groundings=distinct, facts=tuple(facts),
+                      tool_calls=tuple(sorted(set(shared_calls))), seconds=time.perf_counter() - started)
 
     def _reference_list(self, program: tuple[str, ...], scene: ProgramScene) -> tuple[tuple[EventRecord, ...] | None, str | None]:
         """The event list a ``... belong_to [negate]`` question tests its choices against, and a fact naming it."""
@@ -416,6 +446,21 @@ def _event_selection(choice_program: tuple[str, ...], scene: ProgramScene) -> tu
         return None
     try:
         candidates = execute(list(choice_program[:-1]), scene)
+    except ProgramError:
+        return None
+    if not isinstance(candidates, tuple) or any(not isinstance(c, EventRecord) for c in candidates):
+        return None
+    return candidates
+
+
+def _explained_event_candidates(program: Sequence[str], scene: ProgramScene) -> tuple[EventRecord, ...] | None:
+    """For ``events <E> filter_ancestor belong_to [negate]`` with E = ``events ... unique``: the events E
+    selects before ``unique`` (None for other programs or when the selection fails)."""
+    tail = list(program[:-1]) if program and program[-1] == "negate" else list(program)
+    if len(tail) < 5 or tail[0] != "events" or tail[-2:] != ["filter_ancestor", "belong_to"] or tail[-3] != "unique" or tail[1] != "events":
+        return None
+    try:
+        candidates = execute(tail[1:-3], scene)
     except ProgramError:
         return None
     if not isinstance(candidates, tuple) or any(not isinstance(c, EventRecord) for c in candidates):

@@ -8,6 +8,7 @@ dataclasses is present (absent optionals are ``null``).
 from __future__ import annotations
 
 import json
+import math
 from functools import lru_cache
 from pathlib import Path
 from typing import Any, Mapping
@@ -72,10 +73,62 @@ def _body_to_dict(body: Body) -> dict[str, Any]:
     }
 
 
-def _camera_to_dict(camera: Camera) -> dict[str, Any]:
+def camera_to_dict(camera: Camera) -> dict[str, Any]:
+    """A Camera as the JSON object used in world documents and the generator's ground truth."""
     return {"width": int(camera.width), "height": int(camera.height), "fx": float(camera.fx), "fy": float(camera.fy),
             "cx": float(camera.cx), "cy": float(camera.cy), "position": list(camera.position),
             "rotation": [list(row) for row in camera.rotation]}
+
+
+def camera_from_dict(document: Mapping[str, Any], where: str = "camera") -> Camera:
+    """A Camera from a camera object, bare or under a ``"camera"`` key (a generator
+    ground-truth file works as is); extra keys such as ``fovy_deg`` are ignored.
+
+    Fields (OpenCV convention): width, height (pixels), fx, fy, cx, cy (pixels),
+    position [x, y, z] (m), rotation 3x3 row-major camera-to-world.
+    Raises ValueError naming the field.
+    """
+    if isinstance(document, Mapping) and isinstance(document.get("camera"), Mapping):
+        document, where = document["camera"], f"{where}.camera"
+    if not isinstance(document, Mapping):
+        raise ValueError(f"{where}: expected a JSON object")
+    convention = document.get("convention", "opencv")
+    if convention != "opencv":
+        raise ValueError(f"{where}.convention: only 'opencv' is supported, got {convention!r}")
+    for name in ("width", "height"):
+        value = document.get(name)
+        if not isinstance(value, int) or isinstance(value, bool) or value <= 0:
+            raise ValueError(f"{where}.{name}: expected a positive integer, got {value!r}")
+    for name in ("fx", "fy", "cx", "cy"):
+        value = document.get(name)
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+            raise ValueError(f"{where}.{name}: expected a finite number, got {value!r}")
+    position = document.get("position")
+    if not (isinstance(position, list) and len(position) == 3 and all(isinstance(v, (int, float)) for v in position)):
+        raise ValueError(f"{where}.position: expected [x, y, z] in metres, got {position!r}")
+    rotation = document.get("rotation")
+    if not (isinstance(rotation, list) and len(rotation) == 3 and all(isinstance(r, list) and len(r) == 3 for r in rotation)):
+        raise ValueError(f"{where}.rotation: expected a 3x3 row-major matrix, got {rotation!r}")
+    try:
+        return Camera(
+            width=int(document["width"]), height=int(document["height"]),
+            fx=float(document["fx"]), fy=float(document["fy"]), cx=float(document["cx"]), cy=float(document["cy"]),
+            position=tuple(float(v) for v in position), rotation=tuple(tuple(float(v) for v in row) for row in rotation),
+        )
+    except (TypeError, ValueError) as error:
+        raise ValueError(f"{where}: {error}") from None
+
+
+def load_camera(path: str | Path) -> Camera:
+    """Read a camera JSON file (a bare camera, or any document with a ``camera`` key)."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"no such camera file: {path}")
+    try:
+        document = json.loads(path.read_text())
+    except (json.JSONDecodeError, UnicodeDecodeError) as error:
+        raise ValueError(f"camera file {path}: not valid JSON ({error})") from None
+    return camera_from_dict(document, where=f"camera file {path.name}")
 
 
 def world_to_dict(world: World) -> dict[str, Any]:
@@ -88,7 +141,7 @@ def world_to_dict(world: World) -> dict[str, Any]:
         "gravity": float(world.gravity),
         "bodies": [_body_to_dict(b) for b in world.bodies],
         "pair_restitution": [{"bodies": [int(a), int(b)], "restitution": float(e)} for a, b, e in world.pair_restitution],
-        "camera": None if world.camera is None else _camera_to_dict(world.camera),
+        "camera": None if world.camera is None else camera_to_dict(world.camera),
         "provenance": json.loads(json.dumps(dict(world.provenance))),
         "anchor": None if world.anchor is None else {
             "time": float(world.anchor.time),
@@ -113,10 +166,7 @@ def world_from_dict(document: Mapping[str, Any]) -> World:
                 color=b["color"], material=b["material"], active_until=b["active_until"]))
         except ValueError as error:
             raise ValueError(f"bodies[{index}]: {error}") from None
-    cam = document["camera"]
-    camera = None if cam is None else Camera(
-        width=cam["width"], height=cam["height"], fx=cam["fx"], fy=cam["fy"], cx=cam["cx"], cy=cam["cy"],
-        position=tuple(cam["position"]), rotation=tuple(tuple(row) for row in cam["rotation"]))
+    camera = None if document["camera"] is None else camera_from_dict(document["camera"])
     return World(
         bodies=tuple(bodies),
         fps=document["fps"],

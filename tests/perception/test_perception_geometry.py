@@ -10,7 +10,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from perception.geometry import backproject_to_height, project, silhouette
-from perception.video import load_camera
+from world.io import load_camera
 
 CAMERA = load_camera(Path(__file__).resolve().parents[1] / "data" / "synth" / "ground_truth" / "scene_00000.json")
 

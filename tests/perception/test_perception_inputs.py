@@ -13,7 +13,8 @@ import pytest
 
 from perception.background import estimate_background
 from perception.pipeline import perceive
-from perception.video import camera_from_mapping, load_camera, read_video
+from perception.video import read_video
+from world.io import camera_from_dict, load_camera
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "synth"
 TRUTH = DATA / "ground_truth" / "scene_00000.json"
@@ -46,9 +47,7 @@ def test_video_without_objects_gives_empty_valid_observations(floor_video):
     observations = perceive(floor_video, load_camera(TRUTH))
     assert observations.objects == ()
     assert observations.num_frames == 16
-    from perception.cli import observations_document
-
-    document = json.loads(json.dumps(observations_document(observations)))
+    document = json.loads(json.dumps(observations.to_dict()))
     assert document["objects"] == [] and document["num_frames"] == 16 and document["camera"]["fx"] > 0
 
 
@@ -96,7 +95,7 @@ def test_bad_camera_field_is_named(field, value):
     document = json.loads(TRUTH.read_text())["camera"]
     document[field] = value
     with pytest.raises(ValueError, match=field):
-        camera_from_mapping(document)
+        camera_from_dict(document)
 
 
 def test_bare_camera_and_ground_truth_file_agree(tmp_path):

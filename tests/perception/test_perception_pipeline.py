@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from perception.pipeline import instance_map, perceive_frames
-from perception.video import load_camera, read_video
+from perception.video import read_video
+from world.io import load_camera
 from synth.masks import decode_mask
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "synth"

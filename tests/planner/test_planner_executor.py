@@ -199,3 +199,37 @@ def test_executor_config_rejects_bad_values():
         ExecutorConfig(mode="guess")  # type: ignore[arg-type]
     with pytest.raises(ValueError, match="prediction_horizon_frames"):
         ExecutorConfig(prediction_horizon_frames=0)
+
+
+def _scripted_world(events: list[dict], objects: list[tuple[int, str, str, str]]):
+    """A WorldHandle on an httpx MockTransport serving hand-made tool results (no engine): executor semantics alone."""
+    import httpx
+
+    from planner.client import ToolClient
+
+    summary = {"fps": 25.0, "observed_frames": 128, "objects": [
+        {"object_id": i, "color": c, "material": m, "shape": s, "friction": 0.1} for i, c, m, s in objects]}
+    listing = {"events": events, "boundaries": {"horizon_frames": 180, "observed_frames": 128}}
+
+    def handler(request: httpx.Request) -> httpx.Response:
+        tool = request.url.path.rsplit("/", 1)[-1]
+        if request.method == "GET":
+            return httpx.Response(200, json={"world_id": "w-mock"})
+        return httpx.Response(200, json={"get_world_summary": summary, "list_events": listing}[tool])
+
+    client = ToolClient("http://mock", transport=httpx.MockTransport(handler))
+    return client.world("w-mock")
+
+
+def test_an_explained_event_occurring_twice_is_decided_only_where_both_agree():
+    events = [_record("collision", (0, 1), 10), _record("collision", (1, 2), 30), _record("collision", (0, 1), 50),
+              _record("in", (3,), 60)]
+    world = _scripted_world(events, [(0, "red", "metal", "cube"), (1, "blue", "rubber", "cube"), (2, "green", "metal", "sphere"),
+                                     (3, "gray", "rubber", "cylinder")])
+    answer = VideoExecutor(world).answer_text(
+        "Which of the following is responsible for the collision between the red object and the blue object?",
+        ["the presence of the green object", "the presence of the gray object", "the collision between the blue object and the green object"])
+    # First occurrence (frame 10) has no causes; the second (frame 50) is caused by c01@10 and c12@30.
+    assert answer.verdicts == [None, "wrong", None]
+    assert "disagree" in answer.choices[0].error
+    assert "occurs 2 times" in answer.facts[0]

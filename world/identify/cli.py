@@ -25,7 +25,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def load_observations(path: Path, camera_path: Path | None = None):
     """Read either input format; attach the camera file when given."""
     from world.identify.observations import Observations
-    from world.io import camera_from_dict
+    from world.io import load_camera
 
     if not path.exists():
         raise FileNotFoundError(f"no such file: {path}")
@@ -33,12 +33,7 @@ def load_observations(path: Path, camera_path: Path | None = None):
         document = json.loads(path.read_text())
     except json.JSONDecodeError as error:
         raise ValueError(f"{path}: not valid JSON ({error.msg} at line {error.lineno})") from None
-    camera = None
-    if camera_path is not None:
-        if not camera_path.exists():
-            raise FileNotFoundError(f"no such camera file: {camera_path}")
-        camera_doc = json.loads(camera_path.read_text())
-        camera = camera_from_dict(camera_doc.get("camera", camera_doc))
+    camera = load_camera(camera_path) if camera_path is not None else None
     if isinstance(document, dict) and "motion_trajectory" in document:
         return Observations.from_clevrer_annotation(document, camera=camera)
     if isinstance(document, dict) and "objects" in document:

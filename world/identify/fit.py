@@ -42,8 +42,10 @@ class FitConfig:
     gravity: float = STANDARD_GRAVITY
     friction_prior: float = 0.3
     restitution_prior: float = 0.8
-    # Semantic prior for masses across unconnected components (kg, relative).
-    material_mass_prior: Mapping[str, float] = field(default_factory=lambda: {"rubber": 1.0, "metal": 2.0})
+    # Semantic prior for masses across unconnected components: density
+    # (kg/m^3) by material times the volume of the known shape. Rubber is
+    # about 1100; "metal" is taken as aluminium, the lightest common metal.
+    density_prior: Mapping[str, float] = field(default_factory=lambda: {"rubber": 1100.0, "metal": 2700.0})
     joint: bool = True
     prefix_margin_frames: int = 10
     max_nfev_per_stage: int = 60
@@ -75,7 +77,7 @@ class FitReport:
     stages: int
     function_evaluations: int
     seconds: float
-    rmse: float
+    rmse: float  # metres, over every observed sample of every object
 
     def to_dict(self) -> dict[str, object]:
         return {
@@ -193,15 +195,35 @@ def _response_estimates(
     return log_ratios, {pair: float(np.median(v)) for pair, v in restitution.items()}
 
 
+def prior_mass(track: ObjectTrack, density: Mapping[str, float]) -> float:
+    """Mass (kg) a body of this material and shape would have: density x volume.
+
+    The volume is the primitive's, or the mesh's when the shape names one.
+    """
+    shape = track.shape
+    if shape.mesh_path:
+        import trimesh  # only for worlds that carry meshes
+
+        volume = float(trimesh.load(shape.mesh_path, force="mesh").volume)
+    elif shape.kind == "sphere":
+        volume = 4.0 / 3.0 * math.pi * shape.radius**3
+    elif shape.kind == "cube":
+        volume = (2.0 * shape.half_extent) ** 3
+    else:
+        volume = math.pi * shape.radius**2 * 2.0 * shape.half_height
+    known = [value for value in density.values()]
+    return volume * density.get(track.material or "", float(np.exp(np.mean(np.log(known)))))
+
+
 def _solve_masses(
     component: Sequence[int],
     log_ratios: Sequence[tuple[int, int, float]],
-    materials: Mapping[int, str | None],
-    prior: Mapping[str, float],
+    priors: Mapping[int, float],
 ) -> tuple[dict[int, float], set[int]]:
-    """Least-squares log masses from pairwise log ratios; scale from the material prior.
+    """Least-squares log masses from pairwise log ratios; scale from the prior masses.
 
-    Returns masses (kg) and the set of ids whose mass ratio was identified.
+    priors: body id -> prior mass (kg). Returns masses (kg) and the set of
+    ids whose mass ratio was identified.
     """
     index = {body: k for k, body in enumerate(component)}
     rows, rhs = [], []
@@ -213,7 +235,7 @@ def _solve_masses(
             rows.append(row)
             rhs.append(value)
             identified.update((a, b))
-    prior_log = np.array([math.log(prior.get(materials.get(body) or "", 1.0)) for body in component])
+    prior_log = np.array([math.log(priors[body]) for body in component])
     # Weak pull to the prior fixes the free scale (and any unconnected member).
     weight = 1e-3
     matrix = np.vstack([*rows, weight * np.eye(len(component))]) if rows else weight * np.eye(len(component))
@@ -262,6 +284,47 @@ def _body(estimate: BodyEstimate) -> Body:
     )
 
 
+# Bodies entering together must not overlap (the engine rejects it); noisy
+# tracks of touching objects, or an optimiser step, can make them overlap a
+# little. They are pushed apart along the contact normal, to this gap (m).
+SEPARATION_GAP = 1e-5
+
+
+def _separated(bodies: tuple[Body, ...], passes: int = 20) -> tuple[Body, ...]:
+    """Move apart bodies that enter at the same time with overlapping footprints (minimal, symmetric)."""
+    from world.contacts import footprint_distance
+    from world.rollout import footprint_of
+
+    positions = [list(b.initial.position) for b in bodies]
+    moved = False
+    for _ in range(passes):
+        clean = True
+        for a in range(len(bodies)):
+            for b in range(a + 1, len(bodies)):
+                if bodies[a].initial.time != bodies[b].initial.time:
+                    continue
+                gap, normal, _ = footprint_distance(
+                    footprint_of(bodies[a]), positions[a][0], positions[a][1], bodies[a].initial.yaw,
+                    footprint_of(bodies[b]), positions[b][0], positions[b][1], bodies[b].initial.yaw,
+                )
+                if gap >= 0:
+                    continue
+                push = 0.5 * (-gap + SEPARATION_GAP)
+                for k, sign in ((a, 1.0), (b, -1.0)):  # the normal points from b to a
+                    positions[k][0] += sign * push * normal[0]
+                    positions[k][1] += sign * push * normal[1]
+                clean = False
+                moved = True
+        if clean:
+            break
+    if not moved:
+        return bodies
+    return tuple(
+        replace(body, initial=replace(body.initial, position=tuple(position)))
+        for body, position in zip(bodies, positions)
+    )
+
+
 def _world(
     estimates: Sequence[BodyEstimate],
     pair_restitution: Mapping[tuple[int, int], float],
@@ -270,7 +333,7 @@ def _world(
     provenance: Mapping[str, object] | None = None,
 ) -> World:
     return World(
-        bodies=tuple(_body(e) for e in estimates),
+        bodies=_separated(tuple(_body(e) for e in estimates)),
         fps=observations.fps,
         observed_frames=observations.num_frames,
         gravity=config.gravity,
@@ -552,11 +615,11 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
 
     log_ratios, pair_e = _response_estimates(candidates)
     components = _components([t.id for t in usable], [c.bodies for c in candidates])
-    materials = {t.id: t.material for t in usable}
+    priors = {t.id: prior_mass(t, config.density_prior) for t in usable}
     masses: dict[int, float] = {}
     mass_identified: set[int] = set()
     for component in components:
-        component_masses, identified = _solve_masses(component, log_ratios, materials, config.material_mass_prior)
+        component_masses, identified = _solve_masses(component, log_ratios, priors)
         masses.update(component_masses)
         mass_identified |= identified
     default_e = float(np.median(list(pair_e.values()))) if pair_e else config.restitution_prior
@@ -576,7 +639,7 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
             friction = similar_friction(track)
             defaulted[track.id]["friction"] = "no observed deceleration: median of similar objects"
         if track.id not in mass_identified:
-            defaulted[track.id]["mass"] = "no informative collision: material prior"
+            defaulted[track.id]["mass"] = "no informative collision: density prior x shape volume"
         if int(track.observed.sum()) < config.min_frames:
             flags[track.id].append(f"observed on only {int(track.observed.sum())} frames: zero velocity assumed")
             first = replace(first, velocity=np.zeros(2))
@@ -617,6 +680,10 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
             )
             estimates.update(updated)
             pair_e.update(fitted_e)
+            for body in {b for pair in pairs for b in pair}:
+                # The joint fit identified them from the collision it replays.
+                defaulted[body].pop("mass", None)
+                defaulted[body].pop("restitution", None)
             evaluations += used
             stages += len(horizons)
 
@@ -625,17 +692,19 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
         typical_e = float(np.median(list(pair_e.values())))
         estimates = {i: replace(e, restitution=typical_e) for i, e in estimates.items()}
     world = _world([estimates[t.id] for t in usable], pair_e, observations, config)
-    residuals = _residuals(world, usable, observations.num_frames, config.simulator) if usable else np.zeros(0)
     object_reports = []
-    positions, active, order = _positions(world, observations.num_frames, config.simulator) if usable else (None, None, ())
-    column = {b: k for k, b in enumerate(order)}
+    squared_errors = []
+    if usable:
+        positions, _, order = _positions(world, max(observations.num_frames, 1), config.simulator)
+        column = {b: k for k, b in enumerate(order)}
     for track in observations.objects:
         if track.id not in estimates:
             object_reports.append(ObjectFitReport(track.id, float("nan"), 0, (), {"all": "never observed"}, tuple(flags[track.id])))
             continue
         use = track.observed
         error = positions[track.frames[use], column[track.id]] - track.positions[use, :2]
-        rmse = float(np.sqrt(np.mean(np.sum(error**2, axis=1))))
+        squared_errors.append(np.sum(error**2, axis=1))
+        rmse = float(np.sqrt(np.mean(squared_errors[-1])))
         identified = tuple(
             name for name in ("position", "velocity", "friction", "mass", "restitution") if name not in defaulted[track.id]
         )
@@ -649,7 +718,7 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
         stages=stages,
         function_evaluations=evaluations,
         seconds=time.perf_counter() - began,
-        rmse=float(np.sqrt(np.mean(residuals**2) * 2)) if residuals.size else 0.0,
+        rmse=float(np.sqrt(np.mean(np.concatenate(squared_errors)))) if squared_errors else 0.0,
     )
     anchor = _anchor(world, track_fits, observations, config) if usable else None
     provenance = {"fit": report.to_dict(), "source": dict(observations.source)}

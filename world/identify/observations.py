@@ -16,6 +16,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from world.io import camera_from_dict, camera_to_dict
 from world.types import COLORS, MATERIALS, SHAPE_KINDS, Camera, Shape
 
 # CLEVRER uses one object size; the generator (synth/) writes SI metres with
@@ -215,8 +216,6 @@ class Observations:
     @classmethod
     def from_dict(cls, document: Mapping[str, object]) -> "Observations":
         """Inverse of :meth:`to_dict` (the ``observations.json`` format)."""
-        from world.io import camera_from_dict  # local: io imports types only
-
         objects = []
         for entry in _require_list(document, "objects", "observations"):
             shape_doc = entry.get("shape")
@@ -246,8 +245,6 @@ class Observations:
         )
 
     def to_dict(self) -> dict[str, object]:
-        from world.io import camera_to_dict
-
         objects = []
         for track in self.objects:
             shape = {"kind": track.shape.kind, "radius": track.shape.radius, "half_extent": track.shape.half_extent, "half_height": track.shape.half_height}

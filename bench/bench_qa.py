@@ -73,6 +73,40 @@ def fixture_overlap(entries) -> int:
     return count
 
 
+# no world: the build failed; object absent: the option or question names an object the world lacks (never
+# in view); ambiguous: a reference matches several objects; event absent: the explained event is not in the world.
+MISS_CAUSES = ("no world", "object absent", "ambiguous ref", "event absent", "undecided other", "decided wrong")
+
+
+def miss_cause(answer: dict | None, choice: dict | None) -> str:
+    """Why an option was missed, from its recorded evidence."""
+    if answer is None or choice is None:
+        return MISS_CAUSES[0]
+    text = " ".join([choice.get("error") or "", answer.get("error") or "", *choice.get("facts", [])])
+    if "matches no object" in text:
+        return MISS_CAUSES[1]
+    if "ambiguous" in text:
+        return MISS_CAUSES[2]
+    if choice.get("verdict") is None and ("got 0" in text or "disagree" in text):
+        return MISS_CAUSES[3]
+    return MISS_CAUSES[4] if choice.get("verdict") is None else MISS_CAUSES[5]
+
+
+def miss_table(reports: dict) -> str:
+    """Missed options per row, by cause (counts)."""
+    lines = [f"{'missed options by cause':<40}" + "".join(f"{c:>16}" for c in MISS_CAUSES)]
+    for label, report in reports.items():
+        counts = dict.fromkeys(MISS_CAUSES, 0)
+        for record in report["answers"]:
+            answer = record["answer"]
+            choices = answer["choices"] if answer else [None] * len(record["truth"])
+            for choice, truth in zip(choices, record["truth"]):
+                if choice is None or choice["verdict"] != truth:
+                    counts[miss_cause(answer, choice)] += 1
+        lines.append(f"{label:<40}" + "".join(f"{counts[c]:>16}" for c in MISS_CAUSES))
+    return "\n".join(lines)
+
+
 def _cost_line(label: str, infos: dict, result) -> str:
     built = [i["seconds"] for i in infos.values() if "seconds" in i]
     per_question = [r.answer.seconds for r in result.records if r.answer is not None]
@@ -145,6 +179,8 @@ def main(argv: list[str] | None = None) -> int:
         failures = sorted({r["scene_index"] for r in report["answers"] if r["answer"] is None})
         if failures:
             print(f"{label}: {len(failures)} scenes without answers (build or server failure): {failures}")
+    print()
+    print(miss_table(reports))
     undecided = {label: sum(1 for r in report["answers"] for v in r["verdicts"] if v is None) for label, report in reports.items()}
     print("undecided options (counted wrong): " + ", ".join(f"{k}: {v}" for k, v in undecided.items()))
     if args.json:

@@ -18,7 +18,12 @@ fetches, lazily and once per video, everything the CLEVRER programs need:
   ``check_contact`` on the edited rollout for every collision option.
 
 The events feed :mod:`planner.program` (the same interpreter that computes the
-ground truth from MuJoCo), so semantics cannot drift. The
+ground truth from MuJoCo), so semantics cannot drift. Where a program cannot
+run on the world, the executor says why and decides only what follows without
+a guess: an object the world lacks (never in view) takes part in no event;
+an option's event the rollout lacks is not listed; an explained event that
+occurs several times decides an option only when all occurrences agree;
+ambiguous references stay undecided (docs/planner.md). The
 ``trajectory_only`` mode is the ablation of the paper's Figure 4: no
 intervention is executed and a counterfactual is answered from the factual
 events with the removed object's events dropped.
@@ -499,7 +504,3 @@ def truth_of(question: Mapping[str, Any]) -> list[str | None]:
 def answer_dataset_question(executor: VideoExecutor, question: Mapping[str, Any]) -> Answer:
     """Answer a CLEVRER question record from its text (parsed here; the dataset's programs are not used)."""
     return executor.answer_text(str(question["question"]), [str(c["choice"]) for c in question["choices"]])
-
-
-def iter_choice_texts(question: Mapping[str, Any]) -> Iterable[str]:
-    return (str(c["choice"]) for c in question.get("choices", []))

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import pytest
 
-from planner.evaluate import Tally, accuracy, evaluate, format_table
+from planner.evaluate import accuracy, evaluate, format_table
 from planner.executor import ExecutorConfig
 
 REPO = Path(__file__).resolve().parents[2]

@@ -13,7 +13,7 @@ from typing import Any, Mapping
 
 from world.types import Rollout
 
-from tools.common import DEFAULT_CONTACT_TOLERANCE, DEFAULT_FRAME_TOLERANCE, PairEvidence, check_pair, frame_range, pair_evidence
+from tools.common import DEFAULT_CONTACT_TOLERANCE, DEFAULT_FRAME_TOLERANCE, PairEvidence, pair_evidence, pair_query
 from tools.registry import ToolSpec
 from tools.session import BASE_ROLLOUT_ID, WorldSession
 
@@ -32,13 +32,12 @@ def _note(evidence: PairEvidence) -> str:
 
 
 def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
-    a, b = check_pair(session, args, NAME)
-    rollout_id = args.get("rollout_id", BASE_ROLLOUT_ID)
-    rollout = session.rollout(rollout_id, tool=NAME)
-    start, end = frame_range(args, rollout, NAME)
+    query = pair_query(session, args, NAME)
+    a, b, rollout_id, rollout, start, end, evidence = (
+        query.a, query.b, query.rollout_id, query.rollout, query.start, query.end, query.evidence
+    )
     tolerance = float(args.get("contact_tolerance", DEFAULT_CONTACT_TOLERANCE))
     frame_tolerance = int(args.get("frame_tolerance", DEFAULT_FRAME_TOLERANCE))
-    evidence = pair_evidence(session.world, rollout, a, b, start, end, tolerance)
     first = evidence.frames[0] if evidence.frames else None
     result: dict[str, Any] = {
         "rollout_id": rollout_id,

@@ -15,6 +15,7 @@ from world.types import Event, Rollout, World
 
 from tools.errors import invalid_argument
 from tools.footprint import footprint_gap
+from tools.session import BASE_ROLLOUT_ID
 
 DECIMALS = 6
 MOVING_SPEED = 1e-3  # m/s: below this a body counts as at rest
@@ -201,3 +202,26 @@ def check_pair(session: Any, args: Mapping[str, Any], tool: str) -> tuple[int, i
     if a == b:
         raise invalid_argument(tool, "/object_b", f"object_b must differ from object_a (both {a})", f"an object id other than {a}")
     return a, b
+
+
+@dataclass(frozen=True)
+class PairQuery:
+    """The common arguments of the pair tools, checked and resolved."""
+
+    a: int
+    b: int
+    rollout_id: str
+    rollout: Rollout
+    start: int
+    end: int
+    evidence: PairEvidence
+
+
+def pair_query(session: Any, args: Mapping[str, Any], tool: str) -> PairQuery:
+    """Check objects, rollout and frame range of check_contact / get_event_time, and gather the pair's evidence."""
+    a, b = check_pair(session, args, tool)
+    rollout_id = args.get("rollout_id", BASE_ROLLOUT_ID)
+    rollout = session.rollout(rollout_id, tool=tool)
+    start, end = frame_range(args, rollout, tool)
+    tolerance = float(args.get("contact_tolerance", DEFAULT_CONTACT_TOLERANCE))
+    return PairQuery(a, b, rollout_id, rollout, start, end, pair_evidence(session.world, rollout, a, b, start, end, tolerance))

@@ -4,25 +4,21 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
-from tools.common import DEFAULT_CONTACT_TOLERANCE, check_pair, frame_range, pair_evidence
+from tools.common import pair_query
 from tools.registry import ToolSpec
-from tools.session import BASE_ROLLOUT_ID, WorldSession
+from tools.session import WorldSession
 
 NAME = "get_event_time"
 
 
 def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
-    a, b = check_pair(session, args, NAME)
-    rollout_id = args.get("rollout_id", BASE_ROLLOUT_ID)
-    rollout = session.rollout(rollout_id, tool=NAME)
-    start, end = frame_range(args, rollout, NAME)
-    tolerance = float(args.get("contact_tolerance", DEFAULT_CONTACT_TOLERANCE))
-    evidence = pair_evidence(session.world, rollout, a, b, start, end, tolerance)
+    query = pair_query(session, args, NAME)
+    evidence = query.evidence
     first_event = evidence.events[0] if evidence.events else None
     return {
-        "rollout_id": rollout_id,
-        "objects": [a, b],
-        "range": {"frame_start": start, "frame_end": end},
+        "rollout_id": query.rollout_id,
+        "objects": [query.a, query.b],
+        "range": {"frame_start": query.start, "frame_end": query.end},
         "evidence": evidence.evidence,
         "count": len(evidence.frames),
         "frames": list(evidence.frames),
@@ -30,7 +26,7 @@ def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
         "first_time": first_event["time"] if first_event else None,
         "first_event": first_event,
         "events": list(evidence.events),
-        "observed_frames": int(rollout.observed_frames),
+        "observed_frames": int(query.rollout.observed_frames),
     }
 
 

@@ -13,7 +13,6 @@ the server then hosts.
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from dataclasses import dataclass
@@ -22,7 +21,6 @@ from typing import Any, Literal, Mapping
 
 Source = Literal["video", "annotation"]
 SOURCES: tuple[str, ...] = ("video", "annotation")
-_CAMERA_FIELDS = ("width", "height", "fx", "fy", "cx", "cy", "position", "rotation")
 
 
 @dataclass(frozen=True)
@@ -44,37 +42,22 @@ class BuildResult:
 
 
 def camera_from_document(document: Mapping[str, Any], where: str = "camera"):
-    """A ``world.types.Camera`` from a camera JSON: bare, under ``"camera"`` (a synth
-    ground-truth file works as is), extra keys such as ``fovy_deg`` ignored.
+    """A ``world.types.Camera`` from a camera JSON object (bare or under ``"camera"``; a synth
+    ground-truth file works as is). The one parser is ``world.io.camera_from_dict``.
 
     Raises:
         ValueError: a missing or invalid field, named.
     """
-    from world.types import Camera
+    from world.io import camera_from_dict
 
-    if isinstance(document, Mapping) and isinstance(document.get("camera"), Mapping):
-        document = document["camera"]
-    if not isinstance(document, Mapping):
-        raise ValueError(f"{where}: expected a JSON object with {', '.join(_CAMERA_FIELDS)}")
-    missing = [k for k in _CAMERA_FIELDS if k not in document]
-    if missing:
-        raise ValueError(f"{where}: missing field(s) {missing}")
-    try:
-        return Camera(width=int(document["width"]), height=int(document["height"]), fx=float(document["fx"]), fy=float(document["fy"]),
-                      cx=float(document["cx"]), cy=float(document["cy"]), position=tuple(float(v) for v in document["position"]),
-                      rotation=tuple(tuple(float(v) for v in row) for row in document["rotation"]))
-    except (TypeError, ValueError) as error:
-        raise ValueError(f"{where}: {error}") from None
+    return camera_from_dict(document, where=where)
 
 
 def load_camera(path: Path):
-    if not Path(path).is_file():
-        raise FileNotFoundError(f"camera file not found: {path}")
-    try:
-        document = json.loads(Path(path).read_text())
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{path}: not valid JSON ({error.msg} at line {error.lineno})") from None
-    return camera_from_document(document, where=f"camera file {path}")
+    """Read a camera JSON file (``world.io.load_camera``); FileNotFoundError / ValueError on bad input."""
+    from world.io import load_camera as read_camera
+
+    return read_camera(path)
 
 
 def json_safe(value: Any) -> Any:

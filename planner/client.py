@@ -122,11 +122,18 @@ class ToolClient:
         """The tools in OpenAI function-calling format (``GET /v1/tools``)."""
         return list(self._json(self.http.get("/v1/tools"), "GET /v1/tools")["tools"])
 
-    def create_world(self, document: Mapping[str, Any], name: str | None = None) -> "WorldHandle":
-        """Register a world document (``POST /v1/worlds``); its base rollout is computed by the server."""
+    def create_world(
+        self, document: Mapping[str, Any], name: str | None = None, horizon_frames: int | None = None
+    ) -> "WorldHandle":
+        """Register a world document (``POST /v1/worlds``); its base rollout is computed by the server.
+
+        horizon_frames: frames of the base rollout (default: the server's, observed + 20 %).
+        """
         body: dict[str, Any] = {"world": document}
         if name:
             body["name"] = name
+        if horizon_frames is not None:
+            body["horizon_frames"] = int(horizon_frames)
         created = self._json(self.http.post("/v1/worlds", json=body), "POST /v1/worlds")
         return WorldHandle(self, created["world_id"])
 

@@ -108,6 +108,7 @@ def _server_for(args: argparse.Namespace) -> Iterator[str]:
 def run_ask(args: argparse.Namespace) -> int:
     from planner.answer import render_answer
     from planner.client import ToolClient
+    from planner.executor import prediction_horizon_for
 
     if args.world is None and args.world_id is None:
         raise ValueError("give --world world.json, or --server URL with --world-id")
@@ -122,7 +123,10 @@ def run_ask(args: argparse.Namespace) -> int:
         except json.JSONDecodeError as error:
             raise ValueError(f"{args.world}: not valid JSON ({error.msg})") from None
     with _server_for(args) as url, ToolClient(url) as client:
-        world = client.create_world(document, name=args.world.stem) if document is not None else client.world(args.world_id)
+        if document is not None:
+            world = client.create_world(document, name=args.world.stem, horizon_frames=prediction_horizon_for(document))
+        else:
+            world = client.world(args.world_id)
         if args.vlm:
             from planner.vlm import ChatClient, VlmConfig, answer_with_vlm
 

@@ -24,7 +24,7 @@ from typing import Any, Callable, Iterable, Mapping, Sequence
 
 from planner.answer import Answer
 from planner.client import ToolClient, ToolCallError
-from planner.executor import ExecutorConfig, VideoExecutor, answer_dataset_question, truth_of
+from planner.executor import ExecutorConfig, VideoExecutor, answer_dataset_question, prediction_horizon_for, truth_of
 from planner.parser import iter_videos
 
 QUESTION_TYPES: tuple[str, ...] = ("explanatory", "predictive", "counterfactual")
@@ -182,7 +182,8 @@ def ask_video(client: ToolClient, world_document: Mapping[str, Any], entry: Vide
               answer_fn: Callable[[VideoExecutor, Mapping[str, Any]], Answer] = answer_dataset_question) -> tuple[list[QuestionRecord], float]:
     """Register the world, answer every question of the video; returns records and the seconds spent answering."""
     started = time.perf_counter()
-    handle = client.create_world(world_document, name=f"scene_{entry.scene_index:05d}")
+    handle = client.create_world(world_document, name=f"scene_{entry.scene_index:05d}",
+                                 horizon_frames=prediction_horizon_for(world_document))
     executor = VideoExecutor(handle, config)
     records = []
     for question in entry.questions:

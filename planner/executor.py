@@ -50,6 +50,16 @@ DEFAULT_PREDICTION_FACTOR = 1.4
 QUESTION_TAILS = ("belong_to",)
 
 
+def prediction_horizon_for(world_document: Mapping[str, Any], factor: float = DEFAULT_PREDICTION_FACTOR) -> int:
+    """Base-rollout frames that cover the predictive window of a CLEVRER-style dataset.
+
+    Registering a world with this horizon makes ``unseen_events`` come from the
+    base rollout itself: the factual continuation from the fitted end state
+    (the world's anchor), which edited replays do not use.
+    """
+    return int(math.ceil(int(world_document["observed_frames"]) * factor))
+
+
 @dataclass(frozen=True)
 class ExecutorConfig:
     """mode: "execute" or "trajectory_only" (ablation). prediction_horizon_frames:

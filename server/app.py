@@ -175,8 +175,9 @@ class WorldRegistry:
         if not isinstance(body, dict):
             raise invalid_argument(None, "", "the request body must be a JSON object", '{"world": {...world document...}}')
         for key in body:
-            if key not in (*WORLD_SOURCES, "name"):
-                raise invalid_argument(None, json_pointer([key]), f"unknown property {key!r}", f"only {[*WORLD_SOURCES, 'name']}")
+            if key not in (*WORLD_SOURCES, "name", "horizon_frames"):
+                raise invalid_argument(None, json_pointer([key]), f"unknown property {key!r}",
+                                       f"only {[*WORLD_SOURCES, 'name', 'horizon_frames']}")
         sources = [k for k in WORLD_SOURCES if k in body]
         if len(sources) != 1:
             raise invalid_argument(None, "/world", f"give exactly one world source, got {sources or 'none'}",
@@ -205,7 +206,10 @@ class WorldRegistry:
         except (ValueError, KeyError, TypeError) as error:
             raise ToolError(code="invalid_world", tool=None, pointer="/world", status=422,
                             message=str(error)[:500], expected="a valid world document (schemas/world.schema.json)") from None
-        horizon = default_horizon_frames(world)
+        horizon = body.get("horizon_frames", default_horizon_frames(world))
+        if isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < 1:
+            raise invalid_argument(None, "/horizon_frames", f"horizon_frames must be an integer >= 1, got {horizon!r}",
+                                   "an integer number of frames >= 1")
         if horizon > self.settings.max_horizon_frames:
             raise limit_exceeded(None, "/world/observed_frames",
                                  f"the base rollout would need {horizon} frames, above this server's limit of "
@@ -450,6 +454,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             "observations": {"type": "object", "description": "reserved: observations to fit (not yet available)"},
             "video": {"type": "object", "description": "reserved: a video to perceive and fit (not yet available)"},
             "name": {"type": "string", "minLength": 1, "maxLength": 200},
+            "horizon_frames": {"type": "integer", "minimum": 1,
+                               "description": "frames of the base rollout (default: observed frames + 20 %)"},
         },
         "additionalProperties": False,
     }

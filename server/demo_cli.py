@@ -69,7 +69,7 @@ def run(args: argparse.Namespace) -> int:
     from planner.build import build_world, camera_from_document, perception_available
     from planner.client import ToolClient
     from planner.evaluate import load_dataset
-    from planner.executor import VideoExecutor, truth_of
+    from planner.executor import VideoExecutor, prediction_horizon_for, truth_of
     from planner.local_server import local_server
 
     started = time.perf_counter()
@@ -104,7 +104,8 @@ def run(args: argparse.Namespace) -> int:
 
         _step(3, "starting the tool server on a free loopback port ...")
         with local_server(out / "server-data") as url, ToolClient(url) as client:
-            world = client.create_world(built.world, name=f"demo-scene-{scene}")
+            world = client.create_world(built.world, name=f"demo-scene-{scene}",
+                                        horizon_frames=prediction_horizon_for(built.world))
             print(f"    {url}  world {world.world_id}  ({len(client.tools())} tools at {url}/v1/tools)")
             _step(4, "asking one question of each type through HTTP")
             executor = VideoExecutor(world)

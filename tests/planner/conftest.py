@@ -11,7 +11,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[2]
 FIXTURES = REPO / "tests" / "data" / "synth"
 # The first four fixture scenes (by index, not by accuracy) are fitted once per session
-# for the accuracy and command tests; all twelve take ~2 minutes on 2 cores.
+# for the accuracy and command tests (fit time depends on the identification version).
 FITTED_SCENES = (0, 1, 2, 3)
 
 

@@ -220,3 +220,17 @@ def test_body_count_limit(client, world_document):
     response = client.post("/v1/worlds", json={"world": crowded})
     assert response.status_code == 422
     assert (response.json()["error"]["code"], response.json()["error"]["pointer"]) == ("limit_exceeded", "/world/bodies")
+
+
+def test_world_creation_takes_a_base_horizon(client, world_document):
+    created = client.post("/v1/worlds", json={"world": world_document, "horizon_frames": 200})
+    assert created.status_code == 201, created.text
+    world = created.json()["world_id"]
+    rollouts = client.get(f"/v1/worlds/{world}/rollouts").json()["rollouts"]
+    assert [(r["rollout_id"], r["horizon_frames"]) for r in rollouts] == [("base", 200)]
+    state = client.post(f"/v1/worlds/{world}/tools/inspect_world_state", json={"frame": 199})
+    assert state.json()["status"] == "ok"
+    for bad in (0, "long", 1.5):
+        refused = client.post("/v1/worlds", json={"world": world_document, "horizon_frames": bad})
+        assert refused.status_code == 422 and refused.json()["error"]["pointer"] == "/horizon_frames", refused.text
+    client.delete(f"/v1/worlds/{world}")

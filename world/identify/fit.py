@@ -84,7 +84,7 @@ class FitReport:
             "objects": [
                 {
                     "id": o.id,
-                    "rmse": o.rmse,
+                    "rmse": None if math.isnan(o.rmse) else o.rmse,  # None: never observed
                     "observed_frames": o.observed_frames,
                     "identified": list(o.identified),
                     "defaulted": dict(o.defaulted),

@@ -61,13 +61,9 @@ def load_dataset(root: Path, camera_document: Mapping[str, Any] | None = None, l
     root = Path(root)
     if not root.is_dir():
         raise FileNotFoundError(f"dataset directory not found: {root}")
-    questions_path = root / "questions.json"
-    if not questions_path.is_file():
-        raise FileNotFoundError(f"no questions.json in {root}")
-    try:
-        document = json.loads(questions_path.read_text())
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{questions_path}: not valid JSON ({error.msg})") from None
+    from world.io import read_json_file
+
+    document = read_json_file(root / "questions.json", "questions file")
     entries = []
     for key, record in iter_videos(document):
         index = _scene_index(key, record)

@@ -119,16 +119,22 @@ def camera_from_dict(document: Mapping[str, Any], where: str = "camera") -> Came
         raise ValueError(f"{where}: {error}") from None
 
 
-def load_camera(path: str | Path) -> Camera:
-    """Read a camera JSON file (a bare camera, or any document with a ``camera`` key)."""
+def read_json_file(path: str | Path, what: str = "file") -> Any:
+    """Parse a JSON file; FileNotFoundError / ValueError say which ``what`` and why, never a traceback."""
     path = Path(path)
     if not path.is_file():
-        raise FileNotFoundError(f"no such camera file: {path}")
+        raise FileNotFoundError(f"no such {what}: {path}")
     try:
-        document = json.loads(path.read_text())
-    except (json.JSONDecodeError, UnicodeDecodeError) as error:
-        raise ValueError(f"camera file {path}: not valid JSON ({error})") from None
-    return camera_from_dict(document, where=f"camera file {path.name}")
+        return json.loads(path.read_text())
+    except json.JSONDecodeError as error:
+        raise ValueError(f"{what} {path}: not valid JSON ({error.msg} at line {error.lineno})") from None
+    except UnicodeDecodeError:
+        raise ValueError(f"{what} {path}: not a text file") from None
+
+
+def load_camera(path: str | Path) -> Camera:
+    """Read a camera JSON file (a bare camera, or any document with a ``camera`` key)."""
+    return camera_from_dict(read_json_file(path, "camera file"), where=f"camera file {Path(path).name}")
 
 
 def world_to_dict(world: World) -> dict[str, Any]:

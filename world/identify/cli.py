@@ -25,14 +25,9 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 def load_observations(path: Path, camera_path: Path | None = None):
     """Read either input format; attach the camera file when given."""
     from world.identify.observations import Observations
-    from world.io import load_camera
+    from world.io import load_camera, read_json_file
 
-    if not path.exists():
-        raise FileNotFoundError(f"no such file: {path}")
-    try:
-        document = json.loads(path.read_text())
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{path}: not valid JSON ({error.msg} at line {error.lineno})") from None
+    document = read_json_file(path, "observations file")
     camera = load_camera(camera_path) if camera_path is not None else None
     if isinstance(document, dict) and "motion_trajectory" in document:
         return Observations.from_clevrer_annotation(document, camera=camera)

@@ -8,7 +8,6 @@ confidence weight.
 
 from __future__ import annotations
 
-import json
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -16,7 +15,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from world.io import camera_from_dict, camera_to_dict
+from world.io import camera_from_dict, camera_to_dict, read_json_file
 from world.types import COLORS, MATERIALS, SHAPE_KINDS, Camera, Shape
 
 # CLEVRER uses one object size; the generator (synth/) writes SI metres with
@@ -280,12 +279,7 @@ def _load_json(source: str | Path | Mapping[str, object]) -> Mapping[str, object
     if isinstance(source, Mapping):
         return source
     path = Path(source)
-    if not path.exists():
-        raise FileNotFoundError(f"no such annotation file: {path}")
-    try:
-        document = json.loads(path.read_text())
-    except json.JSONDecodeError as error:
-        raise ValueError(f"{path}: not valid JSON ({error.msg} at line {error.lineno})") from None
+    document = read_json_file(path, "annotation file")
     if not isinstance(document, Mapping):
         raise ValueError(f"{path}: expected a JSON object at the top level")
     return document

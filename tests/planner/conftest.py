@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
 from pathlib import Path
 
@@ -13,19 +12,6 @@ FIXTURES = REPO / "tests" / "data" / "synth"
 # The first four fixture scenes (by index, not by accuracy) are fitted once per session
 # for the accuracy and command tests (fit time depends on the identification version).
 FITTED_SCENES = (0, 1, 2, 3)
-
-
-def load_scene_builders():
-    """tests/tools/scene_builders.py, loaded by path (test folders are not packages)."""
-    spec = importlib.util.spec_from_file_location("planner_scene_builders", REPO / "tests" / "tools" / "scene_builders.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-@pytest.fixture(scope="session")
-def scene_builders():
-    return load_scene_builders()
 
 
 @pytest.fixture(scope="session")

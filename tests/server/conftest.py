@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib.util
 import os
 import socket
 import subprocess
@@ -15,19 +14,6 @@ import httpx
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
-
-
-def _load_scene_builders():
-    spec = importlib.util.spec_from_file_location("tool_scene_builders", REPO / "tests" / "tools" / "scene_builders.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
-
-
-@pytest.fixture(scope="session")
-def scene_builders():
-    """tests/tools/scene_builders.py, loaded by path (test folders are not packages)."""
-    return _load_scene_builders()
 
 
 def free_port() -> int:

@@ -13,11 +13,10 @@ the server then hosts.
 
 from __future__ import annotations
 
-import math
 import time
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal, Mapping
+from typing import Any, Literal
 
 Source = Literal["video", "annotation"]
 SOURCES: tuple[str, ...] = ("video", "annotation")
@@ -39,36 +38,6 @@ class BuildResult:
     def info(self) -> dict[str, Any]:
         return {"source": self.source, "seconds": round(self.seconds, 3), "perception_seconds": round(self.perception_seconds, 3),
                 "fit_seconds": round(self.fit_seconds, 3), "rmse_m": None if self.rmse is None else round(self.rmse, 5)}
-
-
-def camera_from_document(document: Mapping[str, Any], where: str = "camera"):
-    """A ``world.types.Camera`` from a camera JSON object (bare or under ``"camera"``; a synth
-    ground-truth file works as is). The one parser is ``world.io.camera_from_dict``.
-
-    Raises:
-        ValueError: a missing or invalid field, named.
-    """
-    from world.io import camera_from_dict
-
-    return camera_from_dict(document, where=where)
-
-
-def load_camera(path: Path):
-    """Read a camera JSON file (``world.io.load_camera``); FileNotFoundError / ValueError on bad input."""
-    from world.io import load_camera as read_camera
-
-    return read_camera(path)
-
-
-def json_safe(value: Any) -> Any:
-    """``value`` with every non-finite float replaced by None (recursively)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else None
-    if isinstance(value, Mapping):
-        return {k: json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_safe(v) for v in value]
-    return value
 
 
 def perception_available() -> bool:
@@ -111,9 +80,7 @@ def build_world(path: Path, source: Source, camera=None, progress: bool = False)
     perceived = time.perf_counter()
     world, report = identify(observations)
     finished = time.perf_counter()
-    rmse = getattr(report, "rmse", None)
+    rmse = report.rmse
     document = world_to_dict(world)
-    # The fit report may hold NaN (e.g. the RMSE of an object never in view); JSON has no NaN.
-    document["provenance"] = json_safe(document.get("provenance", {}))
     return BuildResult(document, source, finished - started, perceived - started, finished - perceived,
-                       None if rmse is None else float(rmse))
+                       float(rmse))

@@ -78,7 +78,8 @@ def register_eval(subparsers: Any) -> None:
 
 
 def run_build(args: argparse.Namespace) -> int:
-    from planner.build import build_world, load_camera
+    from planner.build import build_world
+    from world.io import load_camera
 
     source = args.source
     if source == "auto":
@@ -145,7 +146,7 @@ def run_ask(args: argparse.Namespace) -> int:
 
 
 def run_eval(args: argparse.Namespace) -> int:
-    from planner.build import load_camera
+    from world.io import load_camera
     from planner.client import ToolClient
     from planner.evaluate import build_worlds, evaluate, format_table, load_dataset
     from planner.executor import ExecutorConfig

@@ -81,9 +81,10 @@ def load_dataset(root: Path, camera_document: Mapping[str, Any] | None = None, l
 
 
 def _build_one(entry: VideoEntry, source: str) -> tuple[int, dict[str, Any], dict[str, Any]]:
-    from planner.build import build_world, camera_from_document
+    from planner.build import build_world
+    from world.io import camera_from_dict
 
-    camera = None if entry.camera_document is None else camera_from_document(entry.camera_document)
+    camera = None if entry.camera_document is None else camera_from_dict(entry.camera_document)
     path = entry.annotation if source == "annotation" else entry.video
     result = build_world(path, source, camera)  # type: ignore[arg-type]
     return entry.scene_index, result.world, result.info()

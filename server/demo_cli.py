@@ -66,7 +66,8 @@ def _pick_questions(questions: list[dict]) -> list[dict]:
 
 def run(args: argparse.Namespace) -> int:
     from planner.answer import render_answer
-    from planner.build import build_world, camera_from_document, perception_available
+    from planner.build import build_world, perception_available
+    from world.io import camera_from_dict
     from planner.client import ToolClient
     from planner.evaluate import load_dataset
     from planner.executor import VideoExecutor, prediction_horizon_for, truth_of
@@ -94,7 +95,7 @@ def run(args: argparse.Namespace) -> int:
         source = args.source
         if source == "auto":
             source = "video" if perception_available() else "annotation"
-        camera = None if entry.camera_document is None else camera_from_document(entry.camera_document)
+        camera = None if entry.camera_document is None else camera_from_dict(entry.camera_document)
         _step(2, f"building the world from the {'video (perception + identification)' if source == 'video' else 'annotation (oracle tracks; perception not installed) + identification'} ...")
         built = build_world(entry.video if source == "video" else entry.annotation, source, camera)  # type: ignore[arg-type]
         world_path = out / "world.json"

@@ -125,7 +125,8 @@ def summary_table(stats: list) -> str:
 
 
 def run_contact_sheet(args: argparse.Namespace) -> int:
-    from synth.contact_sheet import tile, write_png
+    from perception.debug import write_png
+    from synth.contact_sheet import tile
     from synth.render import read_mp4
 
     videos = sorted((args.data / "videos").glob("video_*.mp4"))

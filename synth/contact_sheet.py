@@ -1,12 +1,8 @@
-"""Contact sheets (grids of video frames) written as PNG (perception.debug.write_png: numpy + zlib only)."""
+"""Contact sheets: grids of video frames (written as PNG by perception.debug.write_png)."""
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
-
-from perception.debug import write_png
 
 
 def tile(images: list[np.ndarray], columns: int, gap: int = 4) -> np.ndarray:

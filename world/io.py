@@ -60,6 +60,10 @@ def _state_to_dict(state: BodyState) -> dict[str, Any]:
             "yaw": float(state.yaw), "yaw_rate": float(state.yaw_rate), "time": float(state.time)}
 
 
+def _state_from_dict(st: Mapping[str, Any]) -> BodyState:
+    return BodyState(tuple(st["position"]), tuple(st["velocity"]), st["yaw"], st["yaw_rate"], st["time"])
+
+
 def _body_to_dict(body: Body) -> dict[str, Any]:
     shape = body.shape
     return {
@@ -137,6 +141,14 @@ def load_camera(path: str | Path) -> Camera:
     return camera_from_dict(read_json_file(path, "camera file"), where=f"camera file {Path(path).name}")
 
 
+def _strict_json(value: Any, field: str) -> Any:
+    """A deep copy through JSON; NaN or infinity (not JSON) is a ValueError naming the field."""
+    try:
+        return json.loads(json.dumps(value, allow_nan=False))
+    except ValueError:
+        raise ValueError(f"{field}: holds NaN or infinity, which JSON cannot carry") from None
+
+
 def world_to_dict(world: World) -> dict[str, Any]:
     """The World as a JSON-ready dict following world.schema.json."""
     return {
@@ -148,7 +160,7 @@ def world_to_dict(world: World) -> dict[str, Any]:
         "bodies": [_body_to_dict(b) for b in world.bodies],
         "pair_restitution": [{"bodies": [int(a), int(b)], "restitution": float(e)} for a, b, e in world.pair_restitution],
         "camera": None if world.camera is None else camera_to_dict(world.camera),
-        "provenance": json.loads(json.dumps(dict(world.provenance))),
+        "provenance": _strict_json(dict(world.provenance), "provenance"),
         "anchor": None if world.anchor is None else {
             "time": float(world.anchor.time),
             "states": [{"body": int(i), "state": _state_to_dict(st)} for i, st in world.anchor.states],
@@ -167,7 +179,7 @@ def world_from_dict(document: Mapping[str, Any]) -> World:
                 id=b["id"],
                 shape=Shape(s["kind"], radius=s["radius"], half_extent=s["half_extent"],
                             half_height=s["half_height"], mesh_path=s["mesh_path"]),
-                initial=BodyState(tuple(st["position"]), tuple(st["velocity"]), st["yaw"], st["yaw_rate"], st["time"]),
+                initial=_state_from_dict(st),
                 mass=b["mass"], friction=b["friction"], restitution=b["restitution"],
                 color=b["color"], material=b["material"], active_until=b["active_until"]))
         except ValueError as error:
@@ -191,9 +203,8 @@ def _anchor_from_dict(anchor: Mapping[str, Any] | None) -> Anchor | None:
         return None
     states = []
     for index, entry in enumerate(anchor["states"]):
-        st = entry["state"]
         try:
-            states.append((entry["body"], BodyState(tuple(st["position"]), tuple(st["velocity"]), st["yaw"], st["yaw_rate"], st["time"])))
+            states.append((entry["body"], _state_from_dict(entry["state"])))
         except ValueError as error:
             raise ValueError(f"anchor.states[{index}]: {error}") from None
     return Anchor(anchor["time"], tuple(states))

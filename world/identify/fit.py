@@ -26,7 +26,7 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
-from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, slide_positions
+from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide
 from world.identify.observations import ObjectTrack, Observations
 from world.identify.segments import CandidateCollision, find_candidate_collisions
 from world.types import STANDARD_GRAVITY, Anchor, Body, BodyState, World
@@ -545,10 +545,7 @@ def _anchor(world: World, track_fits: Mapping[int, TrackFit], observations: Obse
         seen_last = fit.track.observed[fit.track.frames == last]
         if not (seen_last.size and seen_last[0]) or stretch.samples < 3:
             continue
-        position = slide_positions(np.array([time_at]), stretch.start_time, stretch.position, stretch.velocity, stretch.friction, config.gravity)[0]
-        speed = float(np.hypot(*stretch.velocity))
-        remaining = max(speed - stretch.friction * config.gravity * (time_at - stretch.start_time), 0.0)
-        velocity = stretch.velocity / speed * remaining if speed > 0 else np.zeros(2)
+        position, velocity = stretch.state_at(time_at, config.gravity)
         yaw = float(replay.yaw[last, column[body.id]])
         states[body.id] = BodyState(
             (float(position[0]), float(position[1]), body.shape.rest_height),

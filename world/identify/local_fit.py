@@ -40,6 +40,15 @@ class SlideFit:
     rmse: float
     samples: int
 
+    def state_at(self, time: float, gravity: float) -> tuple[np.ndarray, np.ndarray]:
+        """Position (2,) m and velocity (2,) m/s of the fitted slide at ``time`` (s)."""
+        position = slide_positions(np.array([time]), self.start_time, self.position, self.velocity, self.friction, gravity)[0]
+        speed = float(np.hypot(*self.velocity))
+        if speed == 0.0:
+            return position, np.zeros(2)
+        remaining = max(speed - self.friction * gravity * (time - self.start_time), 0.0)
+        return position, self.velocity / speed * remaining
+
 
 def slide_positions(
     times: np.ndarray, start_time: float, position: np.ndarray, velocity: np.ndarray, friction: float, gravity: float

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from world.identify.local_fit import SlideFit, fit_slide
+from world.identify.local_fit import fit_slide
 from world.identify.observations import ObjectTrack, Observations
 
 # Footprints whose bounding circles come within this gap (metres) at a
@@ -159,15 +159,7 @@ def _side_velocity(
     if mask.sum() < 2:
         return np.full(2, np.nan)
     fit = fit_slide(track.frames[mask] / fps, track.positions[mask, :2], track.weights[mask], gravity, prior)
-    return _velocity_at(fit, at_time, gravity)
-
-
-def _velocity_at(fit: SlideFit, time: float, gravity: float) -> np.ndarray:
-    speed = float(np.hypot(*fit.velocity))
-    if speed == 0.0:
-        return np.zeros(2)
-    remaining = max(speed - fit.friction * gravity * (time - fit.start_time), 0.0)
-    return fit.velocity / speed * remaining
+    return fit.state_at(at_time, gravity)[1]
 
 
 def find_candidate_collisions(

@@ -19,7 +19,7 @@ test: $(STAMP)
 	$(PY) -m pytest -q -n 2
 
 demo: $(STAMP)
-	$(PY) -m server.cli demo --out out/demo
+	$(PY) -m physmind.cli demo --out out/demo
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

@@ -33,7 +33,7 @@ import numpy as np
 
 from bench.metrics import GroundTruth, PrecisionRecall, match_events, rollout_collisions, score_world
 from world.identify.fit import FitConfig, identify
-from world.identify.observations import Observations
+from world.observations import Observations
 from world.rollout import simulate
 
 OBJECT_SIZE = 0.4  # m, side / diameter of the generator's objects: noise is a share of it

@@ -57,7 +57,7 @@ def evaluate_scene(root: Path, index: int, e2e: bool) -> dict:
     from perception.pipeline import instance_map, perceive_frames
     from perception.video import read_video
     from world.io import load_camera
-    from world.identify.observations import Observations
+    from world.observations import Observations
 
     name = f"{index:05d}"
     camera = load_camera(root / "ground_truth" / f"scene_{name}.json")

@@ -30,11 +30,11 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
-from planner.build import perception_available  # noqa: E402
+from physmind.pipeline import build_worlds  # noqa: E402
 from planner.client import ToolClient  # noqa: E402
-from planner.evaluate import QUESTION_TYPES, Tally, build_worlds, evaluate, format_table, load_dataset  # noqa: E402
+from planner.evaluate import QUESTION_TYPES, Tally, evaluate, format_table, load_dataset  # noqa: E402
 from planner.executor import ExecutorConfig  # noqa: E402
-from planner.local_server import local_server  # noqa: E402
+from physmind.local_server import local_server  # noqa: E402
 
 
 def random_row(entries) -> dict[str, Tally]:
@@ -137,7 +137,7 @@ def main(argv: list[str] | None = None) -> int:
     n_questions = sum(len(e.questions) for e in entries)
     print(f"# {len(entries)} scenes, {n_questions} questions from {args.data}; scenes identical to a test fixture: {overlap}")
     reports, costs, tables = {}, [], []
-    run_video = not args.skip_video and perception_available()
+    run_video = not args.skip_video
     if not args.skip_video and not run_video:
         print("# row (a) from video skipped: perception/pipeline.py is not available")
     video_entries = entries[: args.video_limit] if args.video_limit else entries

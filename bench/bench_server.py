@@ -63,7 +63,7 @@ def start_server(data_dir: str, validate_results: bool) -> tuple[subprocess.Pope
     env = {k: v for k, v in os.environ.items() if not k.startswith("PHYSMIND_")}
     env["PHYSMIND_LOG_LEVEL"] = "WARNING"  # per-request log lines would measure stderr, not the tools
     env["PHYSMIND_VALIDATE_RESULTS"] = "1" if validate_results else "0"
-    process = subprocess.Popen([sys.executable, "-m", "server.cli", "serve", "--host", "127.0.0.1", "--port", str(port),
+    process = subprocess.Popen([sys.executable, "-m", "physmind.cli", "serve", "--host", "127.0.0.1", "--port", str(port),
                                 "--data-dir", data_dir], cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     url = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 60

@@ -22,7 +22,7 @@ from perception.segment import ClassicalSegmenter
 from perception.track import HungarianTracker
 from perception.types import Attributes, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
-from world.identify.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
+from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
 from world.types import Camera, SHAPE_KINDS
 
 MAX_ATTRIBUTE_FRAMES = 6  # isolated frames used to decide shape / material

@@ -17,7 +17,7 @@ from scipy.optimize import linear_sum_assignment
 
 from perception.geometry import backproject_to_height, project
 from perception.types import Detection, FrameSegments, TrackState
-from world.identify.observations import DEFAULT_OBJECT_SIZE
+from world.observations import DEFAULT_OBJECT_SIZE
 from world.types import Camera
 
 GATE_BASE = 0.45  # m: largest jump between consecutive frames (4 m/s is 0.16 m/frame, plus segmentation noise)

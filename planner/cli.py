@@ -36,13 +36,6 @@ def register(subparsers: Any) -> None:
                         help="where to write the file with parsed programs")
     parser.set_defaults(handler=run_parse)
 
-    # build / ask / eval live in planner/commands.py.
-    from planner.commands import register_ask, register_build, register_eval
-
-    register_build(subparsers)
-    register_ask(subparsers)
-    register_eval(subparsers)
-
 
 def _rate(exact: int, with_official: int) -> str:
     rate = TypeMatch.rate(exact, with_official)

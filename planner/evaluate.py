@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import json
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
@@ -75,69 +74,6 @@ def load_dataset(root: Path, camera_document: Mapping[str, Any] | None = None, l
                                   root / "videos" / str(record.get("video_filename", f"video_{index:05d}.mp4")), camera))
     entries.sort(key=lambda e: e.scene_index)
     return entries[:limit] if limit is not None else entries
-
-
-# -- building worlds -------------------------------------------------------------------
-
-
-def _build_one(entry: VideoEntry, source: str) -> tuple[int, dict[str, Any], dict[str, Any]]:
-    from planner.build import build_world
-    from world.io import camera_from_dict
-
-    camera = None if entry.camera_document is None else camera_from_dict(entry.camera_document)
-    path = entry.annotation if source == "annotation" else entry.video
-    result = build_world(path, source, camera)  # type: ignore[arg-type]
-    return entry.scene_index, result.world, result.info()
-
-
-def build_worlds(entries: Sequence[VideoEntry], source: str, workers: int = 1, cache_dir: Path | None = None,
-                 progress: bool = True) -> tuple[dict[int, dict[str, Any]], dict[int, dict[str, Any]]]:
-    """World documents (and build info: seconds, rmse) per scene index.
-
-    cache_dir: worlds already there (``world_XXXXX.json`` + ``build_XXXXX.json``) are reused,
-    new ones written. A failing build is recorded in its info (``error``) and has no world.
-    """
-    from tqdm import tqdm
-
-    worlds: dict[int, dict[str, Any]] = {}
-    infos: dict[int, dict[str, Any]] = {}
-    todo = []
-    for entry in entries:
-        if cache_dir is not None:
-            world_path, info_path = Path(cache_dir) / f"world_{entry.scene_index:05d}.json", Path(cache_dir) / f"build_{entry.scene_index:05d}.json"
-            if world_path.is_file() and info_path.is_file():
-                worlds[entry.scene_index] = json.loads(world_path.read_text())
-                infos[entry.scene_index] = {**json.loads(info_path.read_text()), "cached": True}
-                continue
-        todo.append(entry)
-
-    def store(index: int, world: dict[str, Any], info: dict[str, Any]) -> None:
-        worlds[index], infos[index] = world, info
-        if cache_dir is not None:
-            Path(cache_dir).mkdir(parents=True, exist_ok=True)
-            (Path(cache_dir) / f"world_{index:05d}.json").write_text(json.dumps(world))
-            (Path(cache_dir) / f"build_{index:05d}.json").write_text(json.dumps(info))
-
-    bar = tqdm(total=len(todo), desc=f"build ({source})", unit="video", disable=not progress or not todo)
-    if workers <= 1:
-        for entry in todo:
-            try:
-                store(*_build_one(entry, source))
-            except Exception as error:  # one bad video must not stop the evaluation
-                infos[entry.scene_index] = {"source": source, "error": f"{type(error).__name__}: {error}"}
-            bar.update()
-    else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            futures = {pool.submit(_build_one, entry, source): entry for entry in todo}
-            for future in as_completed(futures):
-                entry = futures[future]
-                try:
-                    store(*future.result())
-                except Exception as error:
-                    infos[entry.scene_index] = {"source": source, "error": f"{type(error).__name__}: {error}"}
-                bar.update()
-    bar.close()
-    return worlds, infos
 
 
 # -- asking and scoring --------------------------------------------------------------------

@@ -33,7 +33,6 @@ from jsonschema.exceptions import best_match
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-import world as world_package
 from tools.common import boundaries, event_record
 from tools.errors import ToolError, invalid_argument, json_pointer, limit_exceeded, not_found
 from tools.registry import (
@@ -48,12 +47,13 @@ from tools.registry import (
 from tools.session import BASE_ROLLOUT_ID, WorldSession, default_horizon_frames
 from world.types import Rollout
 
+from schemas import read_schema
 from server.logs import get_logger, now_ms
 from server.settings import Settings
 from server.store import SqliteStore, WorldGone
 
 API_VERSION = "0.1.0"
-WORLD_SCHEMA_PATH = Path(world_package.__file__).resolve().parents[1] / "schemas" / "world.schema.json"
+WORLD_SCHEMA_NAME = "world.schema.json"
 WORLD_SOURCES = ("world", "observations", "video")
 MAX_LISTED_IDS = 100
 ERROR_SCHEMA = {
@@ -142,16 +142,10 @@ class WorldRegistry:
 
     @staticmethod
     def _load_world_validator() -> Any:
-        if not WORLD_SCHEMA_PATH.exists():
-            return None
-        schema = json.loads(WORLD_SCHEMA_PATH.read_text())
-        return jsonschema.Draft202012Validator(schema)
+        return jsonschema.Draft202012Validator(read_schema(WORLD_SCHEMA_NAME))
 
     def world_schema_for_openapi(self) -> dict:
-        if not WORLD_SCHEMA_PATH.exists():
-            return {"type": "object", "description": "a world document (schemas/world.schema.json)"}
-        schema = json.loads(WORLD_SCHEMA_PATH.read_text())
-        return inline_refs(schema, lambda name: json.loads((WORLD_SCHEMA_PATH.parent / name).read_text()), WORLD_SCHEMA_PATH.name)
+        return inline_refs(read_schema(WORLD_SCHEMA_NAME), read_schema, WORLD_SCHEMA_NAME)
 
     def unknown_world(self, world_id: str, tool: str | None = None) -> ToolError:
         return not_found("world", world_id, self.store.world_ids()[:MAX_LISTED_IDS], tool=tool, pointer="")

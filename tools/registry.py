@@ -21,9 +21,10 @@ import jsonschema
 from jsonschema.exceptions import ValidationError, best_match
 from referencing import Registry, Resource
 
+from schemas import read_schema, schema_names
 from tools.errors import ToolError, invalid_argument, json_pointer, not_found
 
-SCHEMA_DIR = Path(__file__).resolve().parents[1] / "schemas" / "tools"
+TOOL_SCHEMA_FOLDER = "tools"
 
 ToolFunction = Callable[[Any, Mapping[str, Any]], dict]
 
@@ -55,14 +56,15 @@ class RegisteredTool:
 @lru_cache(maxsize=1)
 def _schema_registry() -> Registry:
     resources = []
-    for path in sorted(SCHEMA_DIR.glob("*.json")):
-        document = json.loads(path.read_text())
+    for name in schema_names(TOOL_SCHEMA_FOLDER):
+        document = load_schema(name)
         resources.append((document["$id"], Resource.from_contents(document)))
     return Registry().with_resources(resources)
 
 
 def load_schema(filename: str) -> dict:
-    return json.loads((SCHEMA_DIR / filename).read_text())
+    """A tool schema file of ``schemas/tools/`` (e.g. ``check_contact.args.json``)."""
+    return read_schema(f"{TOOL_SCHEMA_FOLDER}/{filename}")
 
 
 def _validator(schema: dict) -> Any:

@@ -15,18 +15,18 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from schemas import read_schema
 from world.types import Anchor, Body, BodyState, Camera, Edit, Event, Rollout, Shape, World
 
 WORLD_FORMAT = "physmind.world/1"
 ROLLOUT_FORMAT = "physmind.rollout/1"
-SCHEMA_DIR = Path(__file__).resolve().parents[1] / "schemas"
 
 
 @lru_cache(maxsize=None)
 def _validator(name: str):
     import jsonschema
 
-    schema = json.loads((SCHEMA_DIR / name).read_text())
+    schema = read_schema(name)
     jsonschema.Draft202012Validator.check_schema(schema)
     return jsonschema.Draft202012Validator(schema)
 

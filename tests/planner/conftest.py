@@ -29,7 +29,7 @@ def six_document(six_world) -> dict:
 
 @pytest.fixture(scope="session")
 def server_url(tmp_path_factory):
-    from planner.local_server import local_server
+    from physmind.local_server import local_server
 
     with local_server(tmp_path_factory.mktemp("planner-server")) as url:
         yield url
@@ -46,7 +46,8 @@ def tool_client(server_url):
 @pytest.fixture(scope="session")
 def fitted_fixture_worlds(tmp_path_factory):
     """(entries, worlds, build infos, cache dir) for FITTED_SCENES, built with the eval code path (2 processes)."""
-    from planner.evaluate import build_worlds, load_dataset
+    from physmind.pipeline import build_worlds
+    from planner.evaluate import load_dataset
 
     entries = [e for e in load_dataset(FIXTURES) if e.scene_index in FITTED_SCENES]
     cache = tmp_path_factory.mktemp("fitted-worlds")

@@ -360,7 +360,7 @@ def _video(scene_index: int) -> dict:
 
 @pytest.mark.parametrize("layout", ["list", "dict"])
 def test_parse_command_writes_programs_and_unparsed_texts(tmp_path: Path, layout: str, capsys) -> None:
-    from server.cli import main
+    from physmind.cli import main
 
     videos = [_video(10000), _video(10001)]
     document = videos if layout == "list" else {str(v["scene_index"]): {"questions": v["questions"]} for v in videos}
@@ -399,7 +399,7 @@ def test_parse_command_writes_programs_and_unparsed_texts(tmp_path: Path, layout
     ],
 )
 def test_parse_command_rejects_bad_files_with_one_line(tmp_path: Path, content: str, message: str, capsys) -> None:
-    from server.cli import main
+    from physmind.cli import main
 
     source = tmp_path / "questions.json"
     source.write_text(content)
@@ -410,7 +410,7 @@ def test_parse_command_rejects_bad_files_with_one_line(tmp_path: Path, content: 
 
 
 def test_parse_command_missing_file(tmp_path: Path, capsys) -> None:
-    from server.cli import main
+    from physmind.cli import main
 
     assert main(["parse", str(tmp_path / "absent.json"), "-o", str(tmp_path / "out.json")]) == 2
     assert "not found" in capsys.readouterr().err

@@ -32,7 +32,7 @@ UNDECIDED_REASONS = ("matches no object", "expected exactly one item, got 0", "a
 
 def _run(*arguments: str, timeout: float = 300) -> subprocess.CompletedProcess:
     env = {k: v for k, v in os.environ.items() if not k.startswith("PHYSMIND_API_KEY")}
-    return subprocess.run([sys.executable, "-m", "server.cli", *arguments], capture_output=True, text=True, timeout=timeout, cwd=REPO, env=env)
+    return subprocess.run([sys.executable, "-m", "physmind.cli", *arguments], capture_output=True, text=True, timeout=timeout, cwd=REPO, env=env)
 
 
 def test_executor_accuracy_on_fitted_fixture_scenes(fitted_fixture_worlds, tool_client):

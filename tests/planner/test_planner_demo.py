@@ -17,7 +17,7 @@ REPO = Path(__file__).resolve().parents[2]
 def test_demo_answers_one_question_of_each_type(tmp_path):
     env = {k: v for k, v in os.environ.items() if not k.startswith("PHYSMIND_API_KEY")}
     env.setdefault("MUJOCO_GL", "egl")
-    completed = subprocess.run([sys.executable, "-m", "server.cli", "demo", "--source", "annotation", "--out", str(tmp_path)],
+    completed = subprocess.run([sys.executable, "-m", "physmind.cli", "demo", "--source", "annotation", "--out", str(tmp_path)],
                                capture_output=True, text=True, timeout=180, cwd=REPO, env=env)
     assert completed.returncode == 0, completed.stderr[-3000:]
     out = completed.stdout

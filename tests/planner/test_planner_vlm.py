@@ -244,7 +244,7 @@ def test_ask_command_drives_the_scripted_model(tmp_path, six_document, server_ur
     world_path.write_text(json.dumps(six_document))
     out = tmp_path / "answer.json"
     with ScriptedChat(removal_script()) as chat:
-        command = [sys.executable, "-m", "server.cli", "ask", "--world", str(world_path), "--server", server_url, QUESTION,
+        command = [sys.executable, "-m", "physmind.cli", "ask", "--world", str(world_path), "--server", server_url, QUESTION,
                    *[a for c in CHOICES for a in ("--choice", c)], "--vlm", "--base-url", chat.url, "--model", "scripted", "--json", str(out)]
         completed = subprocess.run(command, capture_output=True, text=True, timeout=120, env={**_env(), "OPENAI_API_KEY": "from-env"})
     assert completed.returncode == 0, completed.stderr

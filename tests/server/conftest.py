@@ -55,7 +55,7 @@ def start_server(data_dir: Path, log_path: Path, env_extra: dict[str, str] | Non
     env.update(env_extra or {})
     log = open(log_path, "ab")
     process = subprocess.Popen(
-        [sys.executable, "-m", "server.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(data_dir)],
+        [sys.executable, "-m", "physmind.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(data_dir)],
         cwd=REPO, env=env, stdout=log, stderr=subprocess.STDOUT,
     )
     log.close()

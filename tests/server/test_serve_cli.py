@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from server.cli import build_parser, main
+from physmind.cli import build_parser, main
 
 
 def test_serve_is_a_subcommand_with_host_port_and_data_dir():
@@ -24,6 +24,6 @@ def test_bad_port_is_a_one_line_error(port, capsys):
 
 
 def test_bad_environment_is_a_one_line_error():
-    result = subprocess.run([sys.executable, "-m", "server.cli", "serve", "--port", "8"],
+    result = subprocess.run([sys.executable, "-m", "physmind.cli", "serve", "--port", "8"],
                             env={"PHYSMIND_MAX_REQUEST_BYTES": "x", "PATH": ""}, capture_output=True, text=True, timeout=60)
     assert result.returncode == 2 and "PHYSMIND_MAX_REQUEST_BYTES" in result.stderr and "Traceback" not in result.stderr

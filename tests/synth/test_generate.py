@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from server.cli import main
+from physmind.cli import main
 from synth.render import read_mp4
 
 REPO = Path(__file__).resolve().parents[2]
@@ -25,7 +25,7 @@ def test_same_seed_gives_same_bytes_and_frames(tmp_path):
     # Two separate runs of the command, as a user makes them.
     first, second = tmp_path / "a", tmp_path / "b"
     for out in (first, second):
-        command = [sys.executable, "-m", "server.cli", "synth", "--out", str(out), "--scenes", "1", "--seed", "3", "--start-index", "4"]
+        command = [sys.executable, "-m", "physmind.cli", "synth", "--out", str(out), "--scenes", "1", "--seed", "3", "--start-index", "4"]
         completed = subprocess.run(command, cwd=REPO, capture_output=True, text=True, timeout=300)
         assert completed.returncode == 0, completed.stderr[-2000:]
     a, b = _files(first), _files(second)

@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import json
+import re
+from pathlib import Path
 
 import jsonschema
 import pytest
 
+from schemas import read_schema, schema_names
 from tools.errors import ToolError
 from tools.registry import (
-    SCHEMA_DIR,
     call_tool,
     get_tool,
     inline_tool_schema,
@@ -19,6 +21,7 @@ from tools.registry import (
     validate_result,
 )
 
+TOOLS_DIR = Path(__file__).resolve().parents[2] / "tools"
 PAPER_TOOLS = ["simulate_edit", "check_contact", "get_event_time", "compare_rollouts",
                "inspect_world_state", "inspect_object_trajectory", "remove_object"]
 
@@ -31,7 +34,7 @@ def test_the_seven_paper_tools_come_first_then_the_extras():
 @pytest.mark.parametrize("name", tool_names())
 @pytest.mark.parametrize("kind", ["args", "result"])
 def test_schema_files_are_valid_draft_2020_12(name, kind):
-    document = json.loads((SCHEMA_DIR / f"{name}.{kind}.json").read_text())
+    document = read_schema(f"tools/{name}.{kind}.json")
     assert document["$schema"] == "https://json-schema.org/draft/2020-12/schema"
     jsonschema.Draft202012Validator.check_schema(document)
 
@@ -56,9 +59,13 @@ def test_openai_listing_has_function_entries_for_every_tool():
 
 
 def test_every_tool_module_is_discovered_with_its_schemas():
-    modules = {p.stem for p in (SCHEMA_DIR.parent.parent / "tools").glob("*.py")} - {"__init__"}
-    assert set(tool_registry()) <= modules
-    assert {p.name.split(".")[0] for p in SCHEMA_DIR.glob("*.args.json")} == set(tool_registry())
+    # Found independently of the registry's discovery: the modules whose source declares a ToolSpec.
+    declaring = {path.stem for path in TOOLS_DIR.glob("*.py") if re.search(r"^TOOL = ToolSpec\(", path.read_text(), re.M)}
+    assert len(declaring) >= 9
+    assert set(tool_registry()) == declaring
+    files = schema_names("tools")
+    assert {name.removesuffix(".args.json") for name in files if name.endswith(".args.json")} == declaring
+    assert {name.removesuffix(".result.json") for name in files if name.endswith(".result.json")} == declaring
 
 
 @pytest.mark.parametrize(

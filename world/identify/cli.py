@@ -24,7 +24,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def load_observations(path: Path, camera_path: Path | None = None):
     """Read either input format; attach the camera file when given."""
-    from world.identify.observations import Observations
+    from world.observations import Observations
     from world.io import load_camera, read_json_file
 
     document = read_json_file(path, "observations file")

@@ -27,7 +27,7 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide
-from world.identify.observations import ObjectTrack, Observations
+from world.observations import ObjectTrack, Observations
 from world.identify.segments import CandidateCollision, find_candidate_collisions
 from world.types import STANDARD_GRAVITY, Anchor, Body, BodyState, World
 

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from world.identify.local_fit import fit_slide
-from world.identify.observations import ObjectTrack, Observations
+from world.observations import ObjectTrack, Observations
 
 # Footprints whose bounding circles come within this gap (metres) at a
 # change point may be touching. Cubes' bounding circles over-reach, so

@@ -16,7 +16,7 @@ import pytest
 
 from bench.metrics import GroundTruth, rollout_collisions
 from world.identify.fit import FitConfig, identify
-from world.identify.observations import ObjectTrack, Observations, default_shape
+from world.observations import ObjectTrack, Observations, default_shape
 from world.rollout import simulate
 from world.types import Body, BodyState, Edit, World
 

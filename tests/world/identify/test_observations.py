@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from world.identify.observations import ObjectTrack, Observations, default_shape
+from world.observations import ObjectTrack, Observations, default_shape
 
 
 def _annotation(frames: int = 5) -> dict:

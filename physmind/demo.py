@@ -22,6 +22,14 @@ import tempfile
 import time
 from pathlib import Path
 
+from physmind.local_server import local_server
+from physmind.pipeline import build_world
+from planner.answer import render_answer
+from planner.client import ToolClient
+from planner.evaluate import load_dataset
+from planner.executor import VideoExecutor, prediction_horizon_for, truth_of
+from world.io import camera_from_dict
+
 REPO = Path(__file__).resolve().parents[1]
 FIXTURES = REPO / "tests" / "data" / "synth"
 DEFAULT_SCENE = 7
@@ -37,8 +45,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
     parser.add_argument("--data", type=Path, default=FIXTURES, help="dataset directory (default: the test fixtures)")
     parser.add_argument("--generate", action="store_true", help="generate a fresh scene with MuJoCo instead of a fixture")
     parser.add_argument("--seed", type=int, default=2024, help="seed of --generate (default 2024)")
-    parser.add_argument("--source", choices=("auto", "video", "annotation"), default="auto",
-                        help="auto: the video when perception is installed, else the annotation's oracle tracks")
+    parser.add_argument("--source", choices=("video", "annotation"), default="video",
+                        help="video: perception + identification (default); annotation: the oracle tracks")
     parser.add_argument("--out", type=Path, default=None, help="where to write world.json and answers.json (default: a temp dir)")
     parser.set_defaults(handler=run)
 
@@ -48,7 +56,7 @@ def _step(number: int, text: str) -> None:
 
 
 def _generate(seed: int, out: Path) -> Path:
-    command = [sys.executable, "-m", "server.cli", "synth", "--out", str(out), "--scenes", "1", "--seed", str(seed)]
+    command = [sys.executable, "-m", "physmind.cli", "synth", "--out", str(out), "--scenes", "1", "--seed", str(seed)]
     completed = subprocess.run(command, cwd=REPO, capture_output=True, text=True)
     if completed.returncode != 0:
         raise ValueError(f"scene generation failed: {completed.stderr.strip()[-500:]}")
@@ -65,14 +73,6 @@ def _pick_questions(questions: list[dict]) -> list[dict]:
 
 
 def run(args: argparse.Namespace) -> int:
-    from planner.answer import render_answer
-    from planner.build import build_world, perception_available
-    from world.io import camera_from_dict
-    from planner.client import ToolClient
-    from planner.evaluate import load_dataset
-    from planner.executor import VideoExecutor, prediction_horizon_for, truth_of
-    from planner.local_server import local_server
-
     started = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="physmind-demo-") as scratch:
         out = args.out or Path(scratch)
@@ -93,10 +93,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"    video: {entry.video}")
 
         source = args.source
-        if source == "auto":
-            source = "video" if perception_available() else "annotation"
         camera = None if entry.camera_document is None else camera_from_dict(entry.camera_document)
-        _step(2, f"building the world from the {'video (perception + identification)' if source == 'video' else 'annotation (oracle tracks; perception not installed) + identification'} ...")
+        _step(2, f"building the world from the {'video (perception + identification)' if source == 'video' else 'annotation (oracle tracks) + identification'} ...")
         built = build_world(entry.video if source == "video" else entry.annotation, source, camera)  # type: ignore[arg-type]
         world_path = out / "world.json"
         world_path.write_text(json.dumps(built.world, indent=1))

@@ -1,4 +1,4 @@
-"""``physmind build``, ``physmind ask`` and ``physmind eval`` (registered by planner/cli.py).
+"""``physmind build``, ``physmind ask`` and ``physmind eval``: the commands that wire several stages.
 
     physmind build video.mp4 --camera camera.json -o world.json
     physmind build annotation_00000.json --camera scene_00000.json -o world.json   (oracle tracks)
@@ -16,6 +16,22 @@ import sys
 import time
 from pathlib import Path
 from typing import Any, Iterator
+
+from physmind.local_server import local_server
+from physmind.pipeline import build_world, build_worlds
+from planner.answer import render_answer
+from planner.client import ToolClient
+from planner.evaluate import evaluate, format_table, load_dataset
+from planner.executor import ExecutorConfig, VideoExecutor, prediction_horizon_for
+from planner.vlm import ChatClient, VlmConfig, answer_with_vlm
+from world.io import load_camera
+
+
+def register(subparsers: Any) -> None:
+    """``physmind build``, ``ask`` and ``eval``."""
+    register_build(subparsers)
+    register_ask(subparsers)
+    register_eval(subparsers)
 
 
 def register_build(subparsers: Any) -> None:
@@ -78,9 +94,6 @@ def register_eval(subparsers: Any) -> None:
 
 
 def run_build(args: argparse.Namespace) -> int:
-    from planner.build import build_world
-    from world.io import load_camera
-
     source = args.source
     if source == "auto":
         source = "annotation" if args.input.suffix.lower() == ".json" else "video"
@@ -100,17 +113,11 @@ def _server_for(args: argparse.Namespace) -> Iterator[str]:
     if args.server:
         yield args.server
         return
-    from planner.local_server import local_server
-
     with local_server() as url:
         yield url
 
 
 def run_ask(args: argparse.Namespace) -> int:
-    from planner.answer import render_answer
-    from planner.client import ToolClient
-    from planner.executor import prediction_horizon_for
-
     if args.world is None and args.world_id is None:
         raise ValueError("give --world world.json, or --server URL with --world-id")
     if args.world_id is not None and args.server is None:
@@ -129,14 +136,10 @@ def run_ask(args: argparse.Namespace) -> int:
         else:
             world = client.world(args.world_id)
         if args.vlm:
-            from planner.vlm import ChatClient, VlmConfig, answer_with_vlm
-
             config = VlmConfig.from_args(args.base_url, args.model, args.api_key, max_tool_calls=args.max_tool_calls)
             with ChatClient(config) as chat:
                 answer = answer_with_vlm(chat, client, world, args.question, list(args.choice), config)
         else:
-            from planner.executor import ExecutorConfig, VideoExecutor
-
             answer = VideoExecutor(world, ExecutorConfig(mode=args.mode)).answer_text(args.question, list(args.choice))
         print(render_answer(answer, world.calls))
         if args.json:
@@ -146,11 +149,6 @@ def run_ask(args: argparse.Namespace) -> int:
 
 
 def run_eval(args: argparse.Namespace) -> int:
-    from world.io import load_camera
-    from planner.client import ToolClient
-    from planner.evaluate import build_worlds, evaluate, format_table, load_dataset
-    from planner.executor import ExecutorConfig
-
     if args.workers < 1:
         raise ValueError(f"--workers: expected >= 1, got {args.workers}")
     if args.limit is not None and args.limit < 1:
@@ -162,11 +160,6 @@ def run_eval(args: argparse.Namespace) -> int:
     entries = load_dataset(args.dataset, camera_document, args.limit)
     if not entries:
         raise ValueError(f"{args.dataset}/questions.json holds no videos")
-    if args.source == "video":
-        from planner.build import perception_available
-
-        if not perception_available():
-            raise ValueError("--source video needs the perception pipeline (perception/pipeline.py), which is not available")
     started = time.perf_counter()
     worlds, infos = build_worlds(entries, args.source, args.workers, args.cache, progress=True)
     build_seconds = time.perf_counter() - started

@@ -1,11 +1,12 @@
 """The ``physmind`` command line.
 
-Each capability registers its own subcommand from a small ``cli`` module
-(``synth/cli.py``, ``server/serve_cli.py``, ...) exposing
-``register(subparsers) -> None``; the registered handler receives the parsed
-``argparse.Namespace`` and returns an exit code. Heavy imports (MuJoCo,
-uvicorn, PyAV) happen inside handlers so ``physmind --help`` stays fast and a
-missing optional dependency only affects its own subcommand.
+This package is the composition root: the only place that wires the stages
+(perception, identification, tool server, planner) together. Each capability
+registers its own subcommand from a small ``cli`` module (``synth/cli.py``,
+``server/serve_cli.py``, ...) exposing ``register(subparsers) -> None``; the
+commands that cross stages (build, ask, eval, demo) live here in
+``physmind/``. A registered handler receives the parsed ``argparse.Namespace``
+and returns an exit code.
 """
 
 from __future__ import annotations
@@ -15,14 +16,17 @@ import importlib
 import sys
 from typing import Sequence
 
+from physmind import __version__
+
 # Modules that provide ``register(subparsers)``; missing ones are skipped so a
 # partial install still serves the subcommands it has.
 SUBCOMMAND_MODULES: tuple[str, ...] = (
-    "server.demo_cli",
+    "physmind.demo",
     "synth.cli",
-    "world.identify.cli",
-    "server.serve_cli",
     "perception.cli",
+    "world.identify.cli",
+    "physmind.commands",
+    "server.serve_cli",
     "planner.cli",
 )
 
@@ -36,6 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog="physmind",
         description="Video -> executable physical world -> schema-validated tools over HTTP.",
     )
+    parser.add_argument("--version", action="version", version=f"%(prog)s {__version__}")
     subparsers = parser.add_subparsers(dest="command", metavar="COMMAND")
     for module_name in SUBCOMMAND_MODULES:
         try:

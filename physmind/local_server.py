@@ -1,7 +1,7 @@
 """Start the tool server as a subprocess on a free loopback port (demo, eval, ask).
 
 The planner still talks to it over HTTP only; this module just runs
-``python -m server.cli serve`` and waits for ``/healthz``.
+``python -m physmind.cli serve`` and waits for ``/healthz``.
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ def local_server(data_dir: Path | None = None, timeout: float = 60.0, log_path: 
         env.setdefault("PHYSMIND_LOG_LEVEL", "WARNING")
         with open(log_file, "ab") as log:
             process = subprocess.Popen(
-                [sys.executable, "-m", "server.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(directory)],
+                [sys.executable, "-m", "physmind.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(directory)],
                 stdout=log, stderr=subprocess.STDOUT, env=env,
             )
         url = f"http://127.0.0.1:{port}"

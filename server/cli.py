@@ -24,6 +24,7 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "server.serve_cli",
     "perception.cli",
     "planner.cli",
+    "render.cli",
 )
 
 

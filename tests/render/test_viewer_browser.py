@@ -19,6 +19,7 @@ from pathlib import Path
 
 import httpx
 import pytest
+from PIL import Image
 
 from world.io import world_to_dict
 
@@ -143,8 +144,12 @@ def test_viewer_in_headless_chromium_browser(live_server, seven_world):
             assert driver.execute_script(COUNT_PIXELS_JS, canvas_id, 0, 0, 0)[0] > 1000
         screenshot = os.environ.get("PHYSMIND_VIEWER_SCREENSHOT")
         if screenshot:
-            driver.execute_script("window.scrollTo(0, 0)")
+            # The factual rollout mid-replay (trails, collision markers) for the README; 256 colours keep the file small.
+            driver.set_window_size(1640, 1000)
+            driver.execute_script("state.current = 'base'; state.frame = 45; document.getElementById('rollout-select').value = 'base';"
+                                  "renderPlayer(); window.scrollTo(0, 0)")
             driver.save_screenshot(screenshot)
+            Image.open(screenshot).convert("RGB").quantize(256).save(screenshot, optimize=True)
     finally:
         driver.quit()
     print(f"browser test: {time.perf_counter() - started:.1f} s (world upload, browser start, viewer, tool run, compare)")

@@ -176,7 +176,8 @@ function renderPlayer() {
   const rollout = state.rollouts.get(state.current);
   if (!rollout) return;
   const canvas = $("canvas");
-  if (!state.view || state.viewFor !== state.current) { state.view = fitView([rollout], canvas); state.viewFor = state.current; }
+  // One view for the factual and the shown rollout, so switching between them does not move the picture.
+  if (!state.view || state.viewFor !== state.current) { state.view = fitView([state.rollouts.get("base"), rollout], canvas); state.viewFor = state.current; }
   drawRollout(canvas, rollout, state.frame, state.view, label(rollout));
   const base = state.rollouts.get("base");
   const rows = [{ label: "factual", rollout: base, flags: [] }];

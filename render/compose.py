@@ -15,7 +15,7 @@ from PIL import Image
 from world.types import Rollout, World
 
 from render.draw import (
-    draw_overlay_frame, draw_timeline, draw_topdown, draw_topdown_background, project_rollout, topdown_rollout,
+    draw_cursor, draw_overlay_frame, draw_timeline, draw_topdown, draw_topdown_background, project_rollout, topdown_rollout,
 )
 from render.scene import diverging_events, view_for
 
@@ -109,18 +109,25 @@ class SideBySide:
         self.width = panel_width * len(rollouts)
         self.timeline_height = TIMELINE_AXIS + TIMELINE_ROW * len(rollouts)
         self.height = panel_height + self.timeline_height
+        self._timeline_box = (0, panel_height, self.width - 1, self.height - 1)
+        self._blank: Image.Image | None = None
+        self._timeline_x = None
 
     def image(self, frame: int | None = None) -> Image.Image:
         """The panels at ``frame`` (None: each rollout's last frame, full trails, no cursor)."""
-        canvas = Image.new("RGB", (self.width, self.height), (255, 255, 255))
+        if self._blank is None:  # the timeline is the same on every frame: draw it once
+            self._blank = Image.new("RGB", (self.width, self.height), (255, 255, 255))
+            self._timeline_x = draw_timeline(self._blank, self._timeline_box, self.rows, self.horizon_frames, self.fps,
+                                             self.rollouts[0].rollout.observed_frames)
+        canvas = self._blank.copy()
         for k, (item, drawn, background) in enumerate(zip(self.rollouts, self.drawn, self.backgrounds)):
             panel = background.copy()
             last = item.rollout.horizon_frames - 1
             shown = last if frame is None else min(frame, last)
             draw_topdown(panel, self.world, item.rollout, drawn, shown, self.rows[k][2])
             canvas.paste(panel, (k * self.view.width, 0))
-        draw_timeline(canvas, (0, self.view.height, self.width - 1, self.height - 1), self.rows,
-                      self.horizon_frames, self.fps, self.rollouts[0].rollout.observed_frames, cursor=frame)
+        if frame is not None:
+            draw_cursor(canvas, self._timeline_box, self._timeline_x(frame))
         return canvas
 
     def frames(self) -> Iterator[np.ndarray]:

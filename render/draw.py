@@ -9,7 +9,7 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 from PIL import Image, ImageDraw, ImageFont
@@ -201,12 +201,13 @@ def draw_topdown(image: Image.Image, world: World, rollout: Rollout, drawn: TopD
 
 # -- event timeline -------------------------------------------------------------------
 def draw_timeline(image: Image.Image, box: tuple[int, int, int, int], rows: Sequence[tuple[str, Rollout, Sequence[bool]]],
-                  horizon_frames: int, fps: float, observed_frames: int, cursor: int | None = None) -> Image.Image:
+                  horizon_frames: int, fps: float, observed_frames: int, cursor: int | None = None) -> Callable[[float], float]:
     """A time axis across ``box`` (left, top, right, bottom pixels) with one row of events per rollout.
 
     rows: (label, rollout, diverging flags aligned with its events). Collisions are dots labelled
     "a-b", other events ticks labelled by the kind's initial (i(n), o(ut), s(top)); diverging events in DIVERGING_COLOR. A dashed line
-    marks the end of the video; ``cursor`` (a frame) a red line.
+    marks the end of the video; ``cursor`` (a frame) a red line (see ``draw_cursor``).
+    Returns the map frame -> x pixel of the axis.
     """
     draw = ImageDraw.Draw(image)
     left, top, right, bottom = box
@@ -244,6 +245,10 @@ def draw_timeline(image: Image.Image, box: tuple[int, int, int, int], rows: Sequ
                 draw.line(((x, y - 5), (x, y + 5)), fill=color, width=2 if flagged else 1)
                 _label(draw, (x - 3, y + 5), event.kind[0], size=9, fill=color, box=None)
     if cursor is not None:
-        x = x_of(cursor)
-        draw.line(((x, top), (x, bottom)), fill=(220, 0, 0), width=2)
-    return image
+        draw_cursor(image, box, x_of(cursor))
+    return x_of
+
+
+def draw_cursor(image: Image.Image, box: tuple[int, int, int, int], x: float) -> None:
+    """The timeline's current-frame line at pixel column ``x`` inside ``box``."""
+    ImageDraw.Draw(image).line(((x, box[1]), (x, box[3])), fill=(220, 0, 0), width=2)

@@ -50,12 +50,12 @@ def test_video_mp4_and_frame_limit(client, world_id, seven_world, monkeypatch):
     with av.open(io.BytesIO(response.content)) as container:
         frames = sum(1 for _ in container.decode(video=0))
     assert frames == default_horizon(seven_world)
-    client.app.state.render_limits = type(client.app.state.render_limits)(max_frames=50)
-    edited = client.post(f"/v1/worlds/{world_id}/tools/simulate_edit",
-                         json={"edit_type": "set_mass", "object_id": 2, "value": 3.0, "trajectory_detail": "summary"}).json()["rollout_id"]
-    limited = client.get(f"/v1/worlds/{world_id}/rollouts/{edited}/video.mp4")
-    assert limited.status_code == 422
-    assert limited.json()["error"]["code"] == "limit_exceeded" and limited.json()["error"]["limit"] == 50
+    monkeypatch.setenv("PHYSMIND_MAX_RENDER_FRAMES", "150")  # below the 154-frame horizon
+    with TestClient(create_app(Settings(data_dir=client.app.state.settings.data_dir))) as limited_client:
+        limited = limited_client.get(f"/v1/worlds/{world_id}/rollouts/base/video.mp4")
+        assert limited.status_code == 422
+        assert limited.json()["error"]["code"] == "limit_exceeded" and limited.json()["error"]["limit"] == 150
+        assert limited_client.get(f"/v1/worlds/{world_id}/rollouts/base/plot.png").status_code == 200
 
 
 def test_unknown_ids_and_bad_parameters_are_structured_errors(client, world_id):

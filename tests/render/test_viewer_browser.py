@@ -94,6 +94,7 @@ def _chromium():
     return webdriver.Chrome(service=Service(executable_path=str(CHROMEDRIVER)), options=options)
 
 
+@pytest.mark.slow
 def test_viewer_in_headless_chromium_browser(live_server, seven_world):
     from selenium.webdriver.common.by import By
     from selenium.webdriver.support.ui import Select, WebDriverWait

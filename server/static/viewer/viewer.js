@@ -420,6 +420,21 @@ function drawCompare() {
   c.seek = drawTimeline($("compare-timeline"), [{ label: "reference", rollout: c.ra, flags: c.flagsA }, { label: "edited", rollout: c.rb, flags: c.flagsB }], c.frame);
 }
 
+// A plain link cannot send the bearer key: with a key set, fetch the picture and open it as a blob.
+async function openWithKey(event) {
+  if (!localStorage.getItem("physmind-api-key")) return;
+  event.preventDefault();
+  const tab = window.open("", "_blank");
+  try {
+    const response = await fetch(event.currentTarget.href, { headers: headers() });
+    if (!response.ok) throw new Error(`${response.status} ${await response.text()}`);
+    tab.location = URL.createObjectURL(await response.blob());
+  } catch (error) {
+    if (tab) tab.close();
+    setStatus(`picture: ${error.message}`, true);
+  }
+}
+
 // -- wiring --------------------------------------------------------------------------------
 async function main() {
   $("api-key").value = localStorage.getItem("physmind-api-key") || "";
@@ -427,6 +442,7 @@ async function main() {
   $("scrubber").addEventListener("input", (e) => { state.frame = Number(e.target.value); renderPlayer(); });
   $("timeline").addEventListener("click", (e) => { if (state.seek) { state.frame = state.seek(e.offsetX * $("timeline").width / $("timeline").clientWidth); renderPlayer(); } });
   $("play").addEventListener("click", play);
+  for (const link of [$("plot-link"), $("video-link")]) link.addEventListener("click", openWithKey);
   $("rollout-select").addEventListener("change", (e) => showRollout(e.target.value).catch((err) => setStatus(err.message, true)));
   $("tool-select").addEventListener("change", (e) => showTool(e.target.value).catch((err) => setStatus(err.message, true)));
   $("tool-form").addEventListener("submit", runTool);

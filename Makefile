@@ -6,16 +6,29 @@ PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 export MUJOCO_GL ?= egl
 
-.PHONY: install test demo bench clean
+.PHONY: install browser test demo bench clean
 
-install: $(STAMP)
+install: $(STAMP) browser
+
+# The browser test (tests/render/test_viewer_browser.py) drives Debian's Chromium through its
+# chromedriver; install both when missing (needs root; otherwise say how, and the test fails with the reason).
+browser:
+	@if [ ! -x /usr/bin/chromium ] || [ ! -x /usr/bin/chromedriver ]; then \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "installing the Debian packages chromium and chromium-driver (browser test)"; \
+	    export DEBIAN_FRONTEND=noninteractive; \
+	    apt-get update -qq && apt-get install -y -qq chromium chromium-driver > /dev/null; \
+	  else \
+	    echo "warning: /usr/bin/chromium or /usr/bin/chromedriver missing; run: sudo apt-get install -y chromium chromium-driver"; \
+	  fi; \
+	fi
 
 $(STAMP): pyproject.toml constraints.txt
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --disable-pip-version-check -c constraints.txt -e '.[dev]'
 	touch $(STAMP)
 
-test: $(STAMP)
+test: $(STAMP) browser
 	$(PY) -m pytest -q -n 2
 
 demo: $(STAMP)

@@ -28,6 +28,7 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "physmind.commands",
     "server.serve_cli",
     "planner.cli",
+    "render.cli",
 )
 
 

@@ -29,6 +29,7 @@ import jsonschema
 from fastapi import FastAPI, Query, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import Response
+from fastapi.staticfiles import StaticFiles
 from jsonschema.exceptions import best_match
 from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
@@ -49,6 +50,7 @@ from world.types import Rollout
 
 from schemas import read_schema
 from server.logs import get_logger, now_ms
+from server.routes_render import VIEWER_DIR, router as render_router
 from server.settings import Settings
 from server.store import SqliteStore, WorldGone
 
@@ -520,5 +522,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # Any other name: 404 listing the tools (not in the OpenAPI spec: the routes above are the contract).
     app.add_api_route("/v1/worlds/{world_id}/tools/{tool_name}", make_tool_endpoint(None), methods=["POST"], include_in_schema=False)
 
+    app.include_router(render_router)
+    app.mount("/viewer", StaticFiles(directory=VIEWER_DIR, html=True), name="viewer")
     app.add_middleware(RequestMiddleware, settings=settings)
     return app

@@ -18,9 +18,10 @@ ANYTHING = None
 # package -> the packages of ours it may import (ANYTHING: no restriction).
 ALLOWED: dict[str, set[str] | None] = {
     "schemas": set(),
+    "render": {"world", "tools", "schemas"},
     "world": {"schemas"},
     "tools": {"world", "schemas"},
-    "server": {"tools", "world", "schemas"},
+    "server": {"tools", "world", "schemas", "render"},
     "perception": {"world", "schemas"},
     "planner": {"world", "schemas"},
     "physmind": ANYTHING,

@@ -28,12 +28,14 @@ wheel)
     src="$2"; out="$3"
     # Build from a copy without build/, *.egg-info and .venv: setuptools never
     # deletes stale files from build/lib, which would then ship in the wheel.
-    copy="$(mktemp -d)"
-    trap 'rm -rf "$copy"' EXIT
+    copy="$(mktemp -d)"; builder="$(mktemp -d)"
+    trap 'rm -rf "$copy" "$builder"' EXIT
     tar -C "$src" --exclude=./.venv --exclude=./.git --exclude=./build --exclude='*.egg-info' \
         --exclude=./out --exclude=./data --exclude=./tests --exclude=__pycache__ -cf - . | tar -C "$copy" -xf -
     mkdir -p "$out"
-    "$PYTHON" -m pip wheel $PIP_QUIET --no-deps --wheel-dir "$out" "$copy"
+    # pip from a throwaway venv: Debian's python3 has no pip module, its venvs do.
+    "$PYTHON" -m venv "$builder"
+    "$builder/bin/python" -m pip wheel $PIP_QUIET --no-deps --wheel-dir "$out" "$copy"
     ;;
 deps)
     venv="$2"; src="$3"

@@ -27,7 +27,6 @@ import time
 from pathlib import Path
 
 from physmind.local_server import local_server
-from physmind.pipeline import build_world
 from planner.answer import render_answer
 from planner.client import ToolClient
 from planner.evaluate import load_dataset
@@ -99,6 +98,9 @@ def _pick_questions(questions: list[dict]) -> list[dict]:
 
 
 def run(args: argparse.Namespace) -> int:
+    # Lazy: perception and scipy take seconds to import; every other `physmind` command starts without them.
+    from physmind.pipeline import build_world
+
     started = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="physmind-demo-") as scratch:
         out = args.out or Path(scratch)

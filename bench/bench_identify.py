@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bench.fixed_step import simulate_fixed_step
 from bench.metrics import GroundTruth, PrecisionRecall, match_events, rollout_collisions, score_world
 from world.identify.fit import FitConfig, identify
 from world.observations import Observations
@@ -55,7 +56,6 @@ def _noisy(observations: Observations, sigma: float, seed: int) -> Observations:
 def _simulator(method: str):
     if method == "analytic":
         return None, lambda world, edits, horizon: simulate(world, edits, horizon)
-    from bench.fixed_step import simulate_fixed_step
 
     def stepper(world, edits, horizon):
         return simulate_fixed_step(world, edits, horizon, dt=0.01)

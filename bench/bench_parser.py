@@ -3,11 +3,11 @@
     .venv/bin/python bench/bench_parser.py [QUESTIONS.json ...]
 
 Default input: the 564 real CLEVRER explanatory questions (2,256 choices) in
-``../shared/clevrer/clevrer_explanatory_train_subset.json``. Prints, per
+``tests/data/clevrer/clevrer_explanatory_train_subset.json`` (vendored). Prints, per
 question type, the exact program match for questions and for choices, every
 miss (text, official program, parsed program or parse error), and the parse
 throughput. Texts are compared after mapping CLEVRER's release-file operator
-spellings to DESIGN.md's (``planner.parser.normalize_program``).
+spellings to ours (``planner.parser.normalize_program``).
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ if str(REPO) not in sys.path:
 from planner.cli import format_report  # noqa: E402
 from planner.parser import parse_question_file  # noqa: E402
 
-DEFAULT_INPUT = (REPO / ".." / "shared" / "clevrer" / "clevrer_explanatory_train_subset.json").resolve()
+DEFAULT_INPUT = REPO / "tests" / "data" / "clevrer" / "clevrer_explanatory_train_subset.json"
 
 
 def bench_file(path: Path, repeats: int) -> int:

@@ -32,14 +32,22 @@ from pathlib import Path
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
+from tqdm import tqdm
+
+from bench.metrics import GroundTruth, score_world
+from perception.pipeline import instance_map, perceive_frames
+from perception.video import read_video
+from synth.masks import decode_mask
+from world.identify.fit import identify
+from world.io import load_camera
+from world.observations import Observations
+from world.rollout import simulate
 
 RADIUS = 0.2  # m, object radius (the unit of position errors)
 MIN_AREA = 50
 
 
 def _masks(path: Path) -> tuple[dict, list[dict[int, np.ndarray]]]:
-    from synth.masks import decode_mask
-
     document = json.loads(path.read_text())
     per_frame = [{o["object_id"]: decode_mask(o["mask"]) for o in fr["objects"]} for fr in document["frames"]]
     attributes = {}
@@ -54,11 +62,6 @@ def _touches_border(mask: np.ndarray) -> bool:
 
 
 def evaluate_scene(root: Path, index: int, e2e: bool) -> dict:
-    from perception.pipeline import instance_map, perceive_frames
-    from perception.video import read_video
-    from world.io import load_camera
-    from world.observations import Observations
-
     name = f"{index:05d}"
     camera = load_camera(root / "ground_truth" / f"scene_{name}.json")
     began = time.perf_counter()
@@ -160,10 +163,6 @@ def evaluate_scene(root: Path, index: int, e2e: bool) -> dict:
 
 
 def _score(observations, root: Path, name: str) -> dict:
-    from bench.metrics import GroundTruth, score_world
-    from world.identify.fit import identify
-    from world.rollout import simulate
-
     truth = GroundTruth.load(root / "ground_truth" / f"scene_{name}.json")
     world, _ = identify(observations)
     score = score_world(world, truth, lambda w, e, h: simulate(w, e, horizon_frames=h))
@@ -189,7 +188,6 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--worst", type=int, default=5, help="list this many weakest scenes")
     parser.add_argument("--json", type=Path, help="also write per-scene results here")
     args = parser.parse_args(argv)
-    from tqdm import tqdm
 
     indices = sorted(int(p.stem.split("_")[1]) for p in (args.root / "videos").glob("video_*.mp4"))[: args.limit]
     results = [evaluate_scene(args.root, i, not args.no_e2e) for i in tqdm(indices, desc="bench", unit="video")]

@@ -31,14 +31,14 @@ from urllib.parse import urlparse
 
 from tqdm import tqdm
 
+from world.camera import look_at_camera
+from world.io import world_to_dict
+from world.types import Body, BodyState, Shape, World
+
 REPO = Path(__file__).resolve().parents[1]
 
 
 def six_object_world_document() -> dict:
-    from world.camera import look_at_camera
-    from world.io import world_to_dict
-    from world.types import Body, BodyState, Shape, World
-
     cyl, ball = Shape("cylinder", radius=0.2, half_height=0.2), Shape("sphere", radius=0.2)
     bodies = (
         Body(0, cyl, BodyState((-2.0, 0.0, 0.2), (3.0, 0.0, 0.0)), friction=0.1, restitution=0.9, color="red", material="metal"),

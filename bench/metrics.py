@@ -16,7 +16,7 @@ import numpy as np
 from world.io import camera_from_dict
 from world.types import Camera, Edit, Rollout, World
 
-EVENT_TOLERANCE_FRAMES = 5  # DESIGN.md: event precision/recall tolerance
+EVENT_TOLERANCE_FRAMES = 5  # event precision/recall tolerance (docs/benchmarks.md)
 
 
 @dataclass(frozen=True)

@@ -18,7 +18,6 @@ from pathlib import Path
 from typing import Any, Iterator
 
 from physmind.local_server import local_server
-from physmind.pipeline import build_world, build_worlds
 from planner.answer import render_answer
 from planner.client import ToolClient
 from planner.evaluate import evaluate, format_table, load_dataset
@@ -94,6 +93,9 @@ def register_eval(subparsers: Any) -> None:
 
 
 def run_build(args: argparse.Namespace) -> int:
+    # Lazy: perception and scipy take seconds to import; every other `physmind` command starts without them.
+    from physmind.pipeline import build_world
+
     source = args.source
     if source == "auto":
         source = "annotation" if args.input.suffix.lower() == ".json" else "video"
@@ -149,6 +151,9 @@ def run_ask(args: argparse.Namespace) -> int:
 
 
 def run_eval(args: argparse.Namespace) -> int:
+    # Lazy: perception and scipy take seconds to import; every other `physmind` command starts without them.
+    from physmind.pipeline import build_worlds
+
     if args.workers < 1:
         raise ValueError(f"--workers: expected >= 1, got {args.workers}")
     if args.limit is not None and args.limit < 1:

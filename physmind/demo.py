@@ -1,7 +1,10 @@
 """``physmind demo`` (what ``make demo`` runs): video -> world -> tool server -> three answered questions.
 
-1. a scene: a fixture video of tests/data/synth (default scene 7), or
-   ``--generate`` a fresh one with the MuJoCo scene generator;
+1. a scene: a fixture video of ``tests/data/synth`` below the current
+   directory (a checkout; default scene 7), a dataset given with ``--data``,
+   or ``--generate`` a fresh one with the MuJoCo scene generator (also the
+   fallback when there are no fixtures and MuJoCo is installed, as after
+   ``pip install 'physmind[synth]'``);
 2. its world: perception + identification from the video when the perception
    pipeline is installed, else identification from the oracle tracks of the
    CLEVRER annotation (the output says which);
@@ -15,6 +18,7 @@
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import subprocess
 import sys
@@ -23,15 +27,14 @@ import time
 from pathlib import Path
 
 from physmind.local_server import local_server
-from physmind.pipeline import build_world
 from planner.answer import render_answer
 from planner.client import ToolClient
 from planner.evaluate import load_dataset
 from planner.executor import VideoExecutor, prediction_horizon_for, truth_of
 from world.io import camera_from_dict
 
-REPO = Path(__file__).resolve().parents[1]
-FIXTURES = REPO / "tests" / "data" / "synth"
+# Relative to the working directory: the fixtures live in a checkout, never in an installed package.
+FIXTURES = Path("tests") / "data" / "synth"
 DEFAULT_SCENE = 7
 QUESTION_TYPES = ("explanatory", "predictive", "counterfactual")
 
@@ -42,7 +45,8 @@ def register(subparsers: argparse._SubParsersAction) -> None:
         description="Build a world from a video, serve it, and answer an explanatory, a predictive and a "
                     "counterfactual question through the HTTP tools, with evidence and ground truth.")
     parser.add_argument("--scene", type=int, default=DEFAULT_SCENE, help=f"fixture scene index (default {DEFAULT_SCENE})")
-    parser.add_argument("--data", type=Path, default=FIXTURES, help="dataset directory (default: the test fixtures)")
+    parser.add_argument("--data", type=Path, default=None,
+                        help=f"dataset directory (default: {FIXTURES} of the checkout you run from)")
     parser.add_argument("--generate", action="store_true", help="generate a fresh scene with MuJoCo instead of a fixture")
     parser.add_argument("--seed", type=int, default=2024, help="seed of --generate (default 2024)")
     parser.add_argument("--source", choices=("video", "annotation"), default="video",
@@ -57,10 +61,31 @@ def _step(number: int, text: str) -> None:
 
 def _generate(seed: int, out: Path) -> Path:
     command = [sys.executable, "-m", "physmind.cli", "synth", "--out", str(out), "--scenes", "1", "--seed", str(seed)]
-    completed = subprocess.run(command, cwd=REPO, capture_output=True, text=True)
+    completed = subprocess.run(command, capture_output=True, text=True)
     if completed.returncode != 0:
         raise ValueError(f"scene generation failed: {completed.stderr.strip()[-500:]}")
     return out
+
+
+def _mujoco_installed() -> bool:
+    return importlib.util.find_spec("mujoco") is not None
+
+
+def _dataset_source(args: argparse.Namespace) -> str:
+    """``"generate"`` or ``"data"``: where the scene comes from, with the fallbacks of the module docstring."""
+    if args.generate:
+        return "generate"
+    if args.data is not None:
+        if not args.data.is_dir():
+            raise ValueError(f"--data: no dataset directory at {args.data}")
+        return "data"
+    if FIXTURES.is_dir():
+        return "data"
+    if _mujoco_installed():
+        print(f"no fixtures at ./{FIXTURES} (not a checkout): generating a scene with MuJoCo instead", flush=True)
+        return "generate"
+    raise ValueError(f"no fixtures at ./{FIXTURES} (run from a checkout); pass --data DIR (a CLEVRER-layout dataset) "
+                     "or --generate a scene (needs: pip install 'physmind[synth]')")
 
 
 def _pick_questions(questions: list[dict]) -> list[dict]:
@@ -73,15 +98,18 @@ def _pick_questions(questions: list[dict]) -> list[dict]:
 
 
 def run(args: argparse.Namespace) -> int:
+    # Lazy: perception and scipy take seconds to import; every other `physmind` command starts without them.
+    from physmind.pipeline import build_world
+
     started = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="physmind-demo-") as scratch:
         out = args.out or Path(scratch)
         out.mkdir(parents=True, exist_ok=True)
-        if args.generate:
+        if _dataset_source(args) == "generate":
             _step(1, f"generating a scene with MuJoCo (seed {args.seed}) ...")
             data, scene = _generate(args.seed, out / "dataset"), 0
         else:
-            data, scene = args.data, args.scene
+            data, scene = args.data or FIXTURES, args.scene
             _step(1, f"using scene {scene} of {data}")
         entries = {e.scene_index: e for e in load_dataset(data)}
         if scene not in entries:

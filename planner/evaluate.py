@@ -21,10 +21,13 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Iterable, Mapping, Sequence
 
+from tqdm import tqdm
+
 from planner.answer import Answer
-from planner.client import ToolClient, ToolCallError
+from planner.client import ToolCallError, ToolClient
 from planner.executor import ExecutorConfig, VideoExecutor, answer_dataset_question, prediction_horizon_for, truth_of
 from planner.parser import iter_videos
+from world.io import read_json_file
 
 QUESTION_TYPES: tuple[str, ...] = ("explanatory", "predictive", "counterfactual")
 
@@ -60,7 +63,6 @@ def load_dataset(root: Path, camera_document: Mapping[str, Any] | None = None, l
     root = Path(root)
     if not root.is_dir():
         raise FileNotFoundError(f"dataset directory not found: {root}")
-    from world.io import read_json_file
 
     document = read_json_file(root / "questions.json", "questions file")
     entries = []
@@ -219,8 +221,6 @@ def _mean(values: Iterable[Any]) -> float | None:
 def evaluate(entries: Sequence[VideoEntry], worlds: Mapping[int, Mapping[str, Any]], client: ToolClient,
              config: ExecutorConfig, progress: bool = True, build_info: Mapping[int, dict[str, Any]] | None = None) -> EvalResult:
     """Ask every question of every video whose world was built; a video without a world scores all wrong."""
-    from tqdm import tqdm
-
     result = EvalResult(build_info=dict(build_info or {}))
     for entry in tqdm(entries, desc=f"ask ({config.mode})", unit="video", disable=not progress):
         world = worlds.get(entry.scene_index)

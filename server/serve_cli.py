@@ -10,14 +10,22 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from server import settings as settings_module
+
+
+def environment_help() -> str:
+    """The ``PHYSMIND_*`` lines of server/settings.py's docstring: one owner for the list of variables."""
+    lines = [line for line in (settings_module.__doc__ or "").splitlines() if line.startswith("PHYSMIND_")]
+    return "environment variables:\n" + "\n".join(f"  {line}" for line in lines)
+
 
 def register(subparsers: argparse._SubParsersAction) -> None:
     parser = subparsers.add_parser(
         "serve",
         help="serve worlds and rollout tools over HTTP",
-        description="Serve executable worlds and the schema-validated rollout tools over HTTP (FastAPI + uvicorn). "
-                    "Environment: PHYSMIND_DATA_DIR, PHYSMIND_API_KEY, PHYSMIND_MAX_REQUEST_BYTES, "
-                    "PHYSMIND_MAX_HORIZON_FRAMES, PHYSMIND_LOG_LEVEL.",
+        description="Serve executable worlds and the schema-validated rollout tools over HTTP (FastAPI + uvicorn).",
+        epilog=environment_help(),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--host", default="127.0.0.1", help="interface to bind (default 127.0.0.1; 0.0.0.0 in Docker)")
     parser.add_argument("--port", type=int, default=8000, help="TCP port (default 8000)")

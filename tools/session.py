@@ -14,9 +14,9 @@ import uuid
 from dataclasses import dataclass, field
 from typing import Protocol, Sequence
 
-from world.types import Edit, Rollout, World
-
 from tools.errors import limit_exceeded, not_found
+from world.rollout import default_horizon, simulate
+from world.types import Edit, Rollout, World
 
 BASE_ROLLOUT_ID = "base"
 DEFAULT_MAX_HORIZON_FRAMES = 5000
@@ -24,8 +24,6 @@ DEFAULT_MAX_HORIZON_FRAMES = 5000
 
 def default_horizon_frames(world: World) -> int:
     """The engine's default horizon: ceil(observed_frames * 1.2), at least one frame."""
-    from world.rollout import default_horizon
-
     return int(default_horizon(world))
 
 
@@ -145,7 +143,4 @@ class WorldSession:
 
 
 def _simulate(world: World, edits: tuple[Edit, ...], horizon_frames: int, rollout_id: str) -> Rollout:
-    # Imported here so the tools (and their schemas) load even without the engine.
-    from world.rollout import simulate
-
     return simulate(world, edits, horizon_frames=horizon_frames, rollout_id=rollout_id)

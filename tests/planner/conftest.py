@@ -7,6 +7,12 @@ from pathlib import Path
 
 import pytest
 
+from physmind.local_server import local_server
+from physmind.pipeline import build_worlds
+from planner.client import ToolClient
+from planner.evaluate import load_dataset
+from world.io import world_to_dict
+
 REPO = Path(__file__).resolve().parents[2]
 FIXTURES = REPO / "tests" / "data" / "synth"
 # The first four fixture scenes (by index, not by accuracy) are fitted once per session
@@ -22,23 +28,17 @@ def six_world(scene_builders):
 
 @pytest.fixture(scope="session")
 def six_document(six_world) -> dict:
-    from world.io import world_to_dict
-
     return world_to_dict(six_world)
 
 
 @pytest.fixture(scope="session")
 def server_url(tmp_path_factory):
-    from physmind.local_server import local_server
-
     with local_server(tmp_path_factory.mktemp("planner-server")) as url:
         yield url
 
 
 @pytest.fixture()
 def tool_client(server_url):
-    from planner.client import ToolClient
-
     with ToolClient(server_url) as client:
         yield client
 
@@ -46,9 +46,6 @@ def tool_client(server_url):
 @pytest.fixture(scope="session")
 def fitted_fixture_worlds(tmp_path_factory):
     """(entries, worlds, build infos, cache dir) for FITTED_SCENES, built with the eval code path (2 processes)."""
-    from physmind.pipeline import build_worlds
-    from planner.evaluate import load_dataset
-
     entries = [e for e in load_dataset(FIXTURES) if e.scene_index in FITTED_SCENES]
     cache = tmp_path_factory.mktemp("fitted-worlds")
     worlds, infos = build_worlds(entries, "annotation", workers=2, cache_dir=cache, progress=False)

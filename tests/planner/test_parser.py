@@ -6,10 +6,12 @@ import json
 from collections import Counter
 from pathlib import Path
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from physmind.cli import main
 from planner.grammar import EventRef, ObjectRef, ParseError, parse_choice_ast, tokenize
 from planner.parser import (
     normalize_program,
@@ -17,11 +19,15 @@ from planner.parser import (
     parse_question,
     parse_question_file,
 )
+from planner.program import EventRecord, ObjectRecord, ProgramScene, execute
 from planner.vocabulary import COLORS, MATERIALS, SHAPES
+from synth.questions import scene_questions
+from world.types import COLORS as WORLD_COLORS
+from world.types import MATERIALS as WORLD_MATERIALS
+from world.types import SHAPE_KINDS
 
-SHARED_QUESTIONS = (
-    Path(__file__).resolve().parents[2] / ".." / "shared" / "clevrer" / "clevrer_explanatory_train_subset.json"
-).resolve()
+# Vendored real CLEVRER questions (tests/data/README.md): always present, so the test never skips.
+SHARED_QUESTIONS = Path(__file__).resolve().parents[1] / "data" / "clevrer" / "clevrer_explanatory_train_subset.json"
 
 
 def words(program: str) -> tuple[str, ...]:
@@ -278,9 +284,6 @@ def test_tokenizer_splits_possessive_and_punctuation(apostrophe: str) -> None:
 
 
 def test_vocabulary_agrees_with_the_world_types() -> None:
-    from world.types import COLORS as WORLD_COLORS
-    from world.types import MATERIALS as WORLD_MATERIALS
-    from world.types import SHAPE_KINDS
 
     assert set(COLORS) == set(WORLD_COLORS)
     assert set(MATERIALS) == set(WORLD_MATERIALS)
@@ -309,7 +312,6 @@ def test_official_programs_are_normalized(official: str, normalized: str) -> Non
 # ---------------------------------------------------------------- the real corpus
 
 
-@pytest.mark.skipif(not SHARED_QUESTIONS.is_file(), reason=f"shared CLEVRER subset not found at {SHARED_QUESTIONS}")
 def test_real_clevrer_explanatory_subset_exact_match_at_least_99_percent() -> None:
     document = json.loads(SHARED_QUESTIONS.read_text())
     result = parse_question_file(document)
@@ -360,7 +362,6 @@ def _video(scene_index: int) -> dict:
 
 @pytest.mark.parametrize("layout", ["list", "dict"])
 def test_parse_command_writes_programs_and_unparsed_texts(tmp_path: Path, layout: str, capsys) -> None:
-    from physmind.cli import main
 
     videos = [_video(10000), _video(10001)]
     document = videos if layout == "list" else {str(v["scene_index"]): {"questions": v["questions"]} for v in videos}
@@ -399,7 +400,6 @@ def test_parse_command_writes_programs_and_unparsed_texts(tmp_path: Path, layout
     ],
 )
 def test_parse_command_rejects_bad_files_with_one_line(tmp_path: Path, content: str, message: str, capsys) -> None:
-    from physmind.cli import main
 
     source = tmp_path / "questions.json"
     source.write_text(content)
@@ -410,7 +410,6 @@ def test_parse_command_rejects_bad_files_with_one_line(tmp_path: Path, content: 
 
 
 def test_parse_command_missing_file(tmp_path: Path, capsys) -> None:
-    from physmind.cli import main
 
     assert main(["parse", str(tmp_path / "absent.json"), "-o", str(tmp_path / "out.json")]) == 2
     assert "not found" in capsys.readouterr().err
@@ -421,9 +420,7 @@ def test_parse_command_missing_file(tmp_path: Path, capsys) -> None:
 
 def _random_program_scene(seed: int):
     """A random scene of object/event records (no MuJoCo): the generator's question input."""
-    import numpy as np
 
-    from planner.program import EventRecord, ObjectRecord, ProgramScene
 
     rng = np.random.default_rng(seed)
     n_objects = int(rng.integers(3, 7))
@@ -452,13 +449,11 @@ def _random_program_scene(seed: int):
 
 def test_every_generator_question_and_choice_parses_to_the_generators_program() -> None:
     """Runs synth/questions.py's templates (pure Python, no MuJoCo) and parses every text back."""
-    import numpy as np
 
-    questions_module = pytest.importorskip("synth.questions")
     seen: Counter[str] = Counter()
     for seed in range(40):
         scene = _random_program_scene(seed)
-        for question in questions_module.scene_questions(scene, np.random.default_rng(seed)):
+        for question in scene_questions(scene, np.random.default_rng(seed)):
             parsed = parse_question(question["question"])
             assert parsed.question_type == question["question_type"], question["question"]
             assert parsed.program == tuple(question["program"]), question["question"]
@@ -474,7 +469,6 @@ def test_every_generator_question_and_choice_parses_to_the_generators_program() 
 def test_clevrer_release_counterfactual_form_answers_like_the_canonical_form() -> None:
     """``all_events X filter_counterfact belong_to`` (CLEVRER's files) and ``X
     counterfact_events belong_to`` (ours) score every candidate collision alike."""
-    from planner.program import execute
 
     answers: Counter[str] = Counter()
     for seed in range(20):

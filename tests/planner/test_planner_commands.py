@@ -19,8 +19,10 @@ from pathlib import Path
 
 import pytest
 
-from planner.evaluate import accuracy, evaluate, format_table
+from planner.answer import Answer, ChoiceAnswer
+from planner.evaluate import QuestionRecord, accuracy, evaluate, format_table
 from planner.executor import ExecutorConfig
+from world.io import world_from_dict
 
 REPO = Path(__file__).resolve().parents[2]
 FIXTURES = REPO / "tests" / "data" / "synth"
@@ -52,9 +54,6 @@ def test_executor_accuracy_on_fitted_fixture_scenes(fitted_fixture_worlds, tool_
 
 
 def test_accuracy_tally_counts_undecided_as_wrong():
-    from planner.answer import Answer, ChoiceAnswer
-    from planner.evaluate import QuestionRecord
-
     def record(kind, verdicts, truth):
         choices = tuple(ChoiceAnswer(k, "", None, v) for k, v in enumerate(verdicts))
         return QuestionRecord(0, 0, kind, tuple(truth), Answer("q", kind, None, choices))
@@ -156,8 +155,6 @@ def test_ask_command_against_a_running_server(tool_client, server_url, six_docum
 
 
 def test_build_command_fits_a_world_from_oracle_tracks(tmp_path):
-    from world.io import world_from_dict
-
     out = tmp_path / "world.json"
     annotation = FIXTURES / "annotations" / "annotation_00001.json"
     completed = _run("build", str(annotation), "--camera", str(FIXTURES / "ground_truth" / "scene_00001.json"), "-o", str(out))

@@ -8,6 +8,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import httpx
 import pytest
 
 REPO = Path(__file__).resolve().parents[2]
@@ -32,7 +33,6 @@ def test_demo_answers_one_question_of_each_type(tmp_path):
     assert (tmp_path / "world.json").is_file()
     # The server subprocess is gone: its port no longer answers.
     url = next(line.split()[0] for line in out.splitlines() if line.strip().startswith("http://127.0.0.1:"))
-    import httpx
 
     with pytest.raises(httpx.TransportError):
         httpx.get(url + "/healthz", timeout=2.0)

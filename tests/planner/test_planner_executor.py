@@ -11,10 +11,16 @@ import itertools
 import json
 import math
 
+import httpx
 import pytest
 
+from planner.client import ToolClient
 from planner.executor import COLLISION_DEBOUNCE_SECONDS, ExecutorConfig, VideoExecutor, clevrer_events
 from planner.program import EventRecord, ProgramScene, causal_ancestors
+from world.camera import look_at_camera
+from world.io import world_to_dict
+from world.rollout import default_horizon, simulate
+from world.types import Body, BodyState, Edit, Shape, World
 
 COLOR = {0: "red", 1: "blue", 2: "green", 3: "yellow", 4: "purple", 5: "gray"}  # six_object_world
 
@@ -37,9 +43,6 @@ def six(tool_client, six_document):
 @pytest.mark.parametrize("removed", [0, 1, 2, 3, 4, 5])
 @pytest.mark.parametrize("negated", [False, True])
 def test_counterfactual_verdicts_match_engine_replays(six, six_world, removed, negated):
-    from world.rollout import simulate
-    from world.types import Edit
-
     replay = simulate(six_world, [Edit("remove_object", removed)])
     expected_pairs = _collision_pairs(replay, below=six_world.observed_frames)
     pairs = list(itertools.combinations([i for i in range(6) if i != removed], 2))
@@ -65,8 +68,6 @@ def test_one_replay_per_removed_object_reused_across_questions(six):
 
 def test_trajectory_only_ablation_answers_from_factual_events(tool_client, six_document, six_world):
     """Without execution, a collision that only the replay produces cannot be predicted."""
-    from world.rollout import simulate
-
     world = tool_client.create_world(six_document)
     ablation = VideoExecutor(world, ExecutorConfig(mode="trajectory_only"))
     pairs = [(0, 2), (2, 3), (3, 4), (0, 3)]
@@ -79,8 +80,6 @@ def test_trajectory_only_ablation_answers_from_factual_events(tool_client, six_d
 
 
 def test_explanatory_verdicts_follow_the_causal_traces(six, six_world):
-    from world.rollout import simulate
-
     rollout = simulate(six_world)
     events = tuple(EventRecord(e.kind, tuple(e.bodies), e.frame) for e in rollout.events if e.kind in ("collision", "in", "out"))
     scene = ProgramScene(objects=(), events=events)
@@ -112,9 +111,6 @@ def test_an_event_the_world_does_not_contain_is_not_a_cause(six):
 
 def _slow_world():
     """Two slow pairs that collide after the video: ~frame 140 (inside the base horizon) and ~frame 165 (beyond it)."""
-    from world.camera import look_at_camera
-    from world.types import Body, BodyState, Shape, World
-
     cube = Shape("cube", half_extent=0.2)
     bodies = (
         Body(0, cube, BodyState((-2.0, 0.0, 0.2), (0.30, 0.0, 0.0)), friction=0.001, color="red", material="metal"),
@@ -126,9 +122,6 @@ def _slow_world():
 
 
 def test_predictive_uses_the_continuation_beyond_the_base_horizon(tool_client):
-    from world.io import world_to_dict
-    from world.rollout import default_horizon, simulate
-
     world = _slow_world()
     horizon = math.ceil(128 * 1.4)
     future = _collision_pairs(simulate(world, horizon_frames=horizon), at_least=128)
@@ -203,10 +196,6 @@ def test_executor_config_rejects_bad_values():
 
 def _scripted_world(events: list[dict], objects: list[tuple[int, str, str, str]]):
     """A WorldHandle on an httpx MockTransport serving hand-made tool results (no engine): executor semantics alone."""
-    import httpx
-
-    from planner.client import ToolClient
-
     summary = {"fps": 25.0, "observed_frames": 128, "objects": [
         {"object_id": i, "color": c, "material": m, "shape": s, "friction": 0.1} for i, c, m, s in objects]}
     listing = {"events": events, "boundaries": {"horizon_frames": 180, "observed_frames": 128}}

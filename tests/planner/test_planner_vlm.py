@@ -9,15 +9,19 @@ returned) and every request is recorded for the assertions.
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 import sys
 import threading
 from http.server import BaseHTTPRequestHandler, ThreadingHTTPServer
 from typing import Any, Callable
 
+import jsonschema
 import pytest
 
 from planner.vlm import SUBMIT_TOOL, ChatClient, VlmConfig, VlmError, answer_schema, answer_with_vlm
+from world.rollout import simulate
+from world.types import Edit
 
 COLOR = {0: "red", 1: "blue", 2: "green", 3: "yellow", 4: "purple", 5: "gray"}
 Step = Callable[[dict], dict]
@@ -122,9 +126,6 @@ def world(tool_client, six_document):
 
 
 def test_tool_calling_loop_end_to_end(tool_client, world, six_world):
-    from world.rollout import simulate
-    from world.types import Edit
-
     with ScriptedChat(removal_script()) as chat:
         config = VlmConfig(base_url=chat.url, model="scripted", api_key="test-key")
         with ChatClient(config) as client:
@@ -228,8 +229,6 @@ def test_config_reads_the_environment(monkeypatch):
 
 
 def test_answer_schema_needs_one_verdict_per_choice():
-    import jsonschema
-
     schema = answer_schema(2)
     jsonschema.validate({"answers": [{"choice_id": 0, "verdict": "wrong", "reason": ""}, {"choice_id": 1, "verdict": "correct", "reason": ""}]}, schema)
     with pytest.raises(jsonschema.ValidationError):
@@ -256,6 +255,4 @@ def test_ask_command_drives_the_scripted_model(tmp_path, six_document, server_ur
 
 
 def _env() -> dict:
-    import os
-
     return {k: v for k, v in os.environ.items() if not k.startswith(("OPENAI_", "PHYSMIND_API_KEY"))}

@@ -13,6 +13,8 @@ from pathlib import Path
 import httpx
 import pytest
 
+from world.io import world_to_dict
+
 REPO = Path(__file__).resolve().parents[2]
 
 
@@ -76,8 +78,6 @@ def start_server(data_dir: Path, log_path: Path, env_extra: dict[str, str] | Non
 
 @pytest.fixture(scope="session")
 def world_document(scene_builders) -> dict:
-    from world.io import world_to_dict
-
     return world_to_dict(scene_builders.six_object_world())
 
 

@@ -15,12 +15,13 @@ from planner.program import ProgramError, check_program, execute
 from synth.annotate import program_scene_from_ground_truth
 from synth.masks import decode_mask
 from synth.questions import object_references
-from synth.scene import OBJECT_HALF_SIZE, inside_view, project_points
+from schemas import read_schema
+from synth.scene import (DENSITY_RANGE, OBJECT_HALF_SIZE, RESTITUTION_RANGE, SLIDING_FRICTION_RANGE,
+                         SPHERE_SLIDING_FRICTION_RANGE, _shape_volume, inside_view, project_points)
 from world.types import Camera
 
 ROOT = Path(__file__).resolve().parents[2]
 DATA = ROOT / "tests" / "data" / "synth"
-SCHEMAS = ROOT / "schemas"
 INDICES = sorted(int(p.stem.split("_")[1]) for p in (DATA / "ground_truth").glob("scene_*.json"))
 
 
@@ -50,7 +51,7 @@ def test_fixture_set_is_present():
 @pytest.mark.parametrize("index", INDICES)
 def test_annotation_validates_and_matches_ground_truth(index):
     annotation = load("annotation", index)
-    jsonschema.validate(annotation, json.loads((SCHEMAS / "clevrer_annotation.schema.json").read_text()))
+    jsonschema.validate(annotation, read_schema("clevrer_annotation.schema.json"))
     gt = load("gt", index)
     assert len(annotation["motion_trajectory"]) == gt["observed_frames"] == 128
     # The annotation's collisions are exactly MuJoCo's observed collisions.
@@ -65,20 +66,121 @@ def test_annotation_validates_and_matches_ground_truth(index):
 
 def test_questions_validate_against_schema():
     entries = json.loads((DATA / "questions.json").read_text())
-    jsonschema.validate(entries, json.loads((SCHEMAS / "clevrer_questions.schema.json").read_text()))
+    jsonschema.validate(entries, read_schema("clevrer_questions.schema.json"))
+
+
+# --- An independent answer key --------------------------------------------------
+# The generator computes its answers with planner.program on the programs. This
+# re-derives them from the English text and the raw MuJoCo event list with a
+# separate, small implementation of CLEVRER's semantics (docs/formats.md), so a
+# bug in the program interpreter, the question writer or the annotation code
+# shows up as a disagreement instead of being checked against itself.
+
+COLORS = ("gray", "red", "blue", "green", "brown", "yellow", "cyan", "purple")
+REFERENCE = re.compile(rf"[Tt]he (?:(?P<color>{'|'.join(COLORS)}) )?(?:(?P<material>metal|rubber) )?(?P<shape>sphere|cube|cylinder|object)")
+KIND_ORDER = {"start": 0, "in": 1, "collision": 2, "out": 3, "end": 4}
+
+
+def _object_named(phrase: str, objects: list[dict]) -> int:
+    """The id of the one ground-truth object ``phrase`` ("the red rubber cube", "the cylinder") names."""
+    match = REFERENCE.fullmatch(phrase.strip())
+    assert match is not None, phrase
+    color, material, shape = match["color"], match["material"], match["shape"]
+    found = [o["object_id"] for o in objects
+             if (color is None or o["color"] == color) and (material is None or o["material"] == material)
+             and (shape == "object" or o["shape"] == shape)]
+    assert len(found) == 1, f"{phrase!r} names {len(found)} objects"
+    return found[0]
+
+
+def _event_key(event: dict) -> tuple[str, frozenset[int]]:
+    return event["kind"], frozenset(event["object_ids"])
+
+
+def _ancestor_keys(target: dict, observed: list[dict]) -> set[tuple[str, frozenset[int]]]:
+    """Causal ancestors of ``target``: recursively, the previous event in the trace of each object it involves."""
+    ordered = sorted(observed, key=lambda e: (e["frame_id"], KIND_ORDER[e["kind"]], sorted(e["object_ids"])))
+    found, frontier = [], [target]
+    while frontier:
+        current = frontier.pop()
+        for oid in current["object_ids"]:
+            trace = [e for e in ordered if oid in e["object_ids"]]
+            k = next(i for i, e in enumerate(trace) if e is current)
+            if k > 0 and all(trace[k - 1] is not f for f in found):
+                found.append(trace[k - 1])
+                frontier.append(trace[k - 1])
+    return {_event_key(e) for e in found}
+
+
+def _event_named(phrase: str, objects: list[dict]) -> tuple[str, frozenset[int]]:
+    """An event phrase of a choice or question, as (kind, objects)."""
+    for pattern, kind in ((r"(?:the collision between )?(.+?) and (.+)", "collision"),
+                          (r"(.+?)'s colliding with (.+)", "collision"),
+                          (r"(.+?) collides with (.+)", "collision"),
+                          (r"(.+?)'s (?:entrance|entering the scene)", "in"),
+                          (r"(.+?)'s (?:exit|exiting the scene)", "out")):
+        match = re.fullmatch(pattern, phrase)
+        if match is not None and (kind != "collision" or " and " in phrase or "collid" in phrase):
+            return kind, frozenset(_object_named(g, objects) for g in match.groups())
+    raise AssertionError(f"unknown event phrase {phrase!r}")
+
+
+def independent_answer(question: str, choice: str, gt: dict) -> str:
+    """'correct' or 'wrong', from the text and gt["events"] / gt["counterfactual"] only."""
+    objects, observed_frames = gt["objects"], gt["observed_frames"]
+    observed = [e for e in gt["events"] if e["frame_id"] < observed_frames]
+    negated = " not " in question
+    if question.startswith("Which event will happen next"):
+        future = {_event_key(e) for e in gt["events"] if e["frame_id"] >= observed_frames}
+        holds = _event_named(choice, objects) in future
+    elif question.startswith("Which of the following will"):
+        removed = _object_named(re.search(r"happen if (.+) is removed\?", question)[1], objects)
+        replay = next(cf for cf in gt["counterfactual"] if cf["removed_object_id"] == removed)
+        holds = _event_named(choice, objects) in {_event_key(e) for e in replay["events"] if e["frame_id"] < observed_frames}
+    else:
+        phrase = re.search(r"responsible for (.+)\?", question)[1]
+        kind, ids = _event_named(phrase, objects)
+        targets = [e for e in observed if _event_key(e) == (kind, ids)]
+        assert len(targets) == 1, f"{question!r}: the target event happens {len(targets)} times"
+        causes = _ancestor_keys(targets[0], observed)
+        if choice.startswith("the presence of "):
+            present = _object_named(choice.removeprefix("the presence of "), objects)
+            holds = any(present in ids for _, ids in causes)
+        else:
+            holds = _event_named(choice, objects) in causes
+    return "correct" if holds != negated else "wrong"
+
+
+def test_independent_answer_key_reads_the_text():
+    """The small implementation above, on a hand-made scene (so it can be trusted to disagree)."""
+    gt = {"observed_frames": 10, "objects": [
+        {"object_id": 0, "color": "red", "material": "metal", "shape": "cube"},
+        {"object_id": 1, "color": "blue", "material": "rubber", "shape": "sphere"},
+        {"object_id": 2, "color": "blue", "material": "metal", "shape": "sphere"}],
+        "events": [{"kind": "collision", "object_ids": [0, 1], "frame_id": 3},
+                   {"kind": "collision", "object_ids": [1, 2], "frame_id": 6},
+                   {"kind": "collision", "object_ids": [0, 2], "frame_id": 12}],
+        "counterfactual": [{"removed_object_id": 0, "events": [{"kind": "collision", "object_ids": [1, 2], "frame_id": 8}]}]}
+    explain = "Which of the following is responsible for the collision between the rubber sphere and the metal sphere?"
+    assert independent_answer(explain, "the presence of the cube", gt) == "correct"
+    assert independent_answer(explain, "the collision between the cube and the rubber sphere", gt) == "correct"
+    assert independent_answer(explain.replace("is responsible", "is not responsible"), "the presence of the cube", gt) == "wrong"
+    assert independent_answer("Which event will happen next?", "The cube collides with the metal sphere", gt) == "correct"
+    assert independent_answer("Which event will happen next?", "The cube collides with the rubber sphere", gt) == "wrong"
+    removed = "Which of the following will happen if the red object is removed?"
+    assert independent_answer(removed, "The rubber sphere collides with the metal sphere", gt) == "correct"
+    with pytest.raises(AssertionError, match="names 2 objects"):
+        independent_answer(removed, "The blue object collides with the cube", gt)
 
 
 @pytest.mark.parametrize("index", INDICES)
-def test_every_answer_re_derives_from_ground_truth_events(index):
-    """Re-run every choice on the MuJoCo events of ground_truth/ with planner.program."""
-    scene = program_scene_from_ground_truth(load("gt", index))
+def test_every_answer_agrees_with_an_independent_answer_key(index):
+    gt = load("gt", index)
     asked = questions()[index]["questions"]
     assert asked, f"scene {index} has no questions"
     for question in asked:
         for choice in question["choices"]:
-            result = execute(choice["program"] + question["program"], scene)
-            assert result in ("yes", "no")
-            assert ("correct" if result == "yes" else "wrong") == choice["answer"], (question["question"], choice["choice"])
+            assert independent_answer(question["question"], choice["choice"], gt) == choice["answer"], (question["question"], choice["choice"])
 
 
 def test_question_types_and_balance():
@@ -171,10 +273,16 @@ def test_objects_enter_the_view_in_some_scenes():
     assert entering >= 3
 
 
-@pytest.mark.parametrize("index", INDICES[:4])
-def test_camera_projects_onto_the_rendered_masks(index):
+def test_camera_projects_onto_the_rendered_masks():
     """The true camera in ground_truth/ reproduces the render: centres of fully
-    visible spheres project to their mask centroid within 1.5 px."""
+    visible spheres project to their mask centroid within 1.5 px, in every scene
+    that has an unoccluded sphere in the sampled frames (most of them)."""
+    checked = {index: _sphere_centres_on_their_masks(index) for index in INDICES}
+    assert sum(1 for n in checked.values() if n > 0) >= len(INDICES) // 2, checked
+
+
+def _sphere_centres_on_their_masks(index: int) -> int:
+    """Asserts the projection for each unoccluded sphere of every 20th frame; returns how many were checked."""
     gt = load("gt", index)
     camera = camera_of(gt)
     masks = load("masks", index)
@@ -198,13 +306,10 @@ def test_camera_projects_onto_the_rendered_masks(index):
             ys, xs = np.nonzero(mask)
             assert abs(xs.mean() - pixel[0, 0]) < 1.5 and abs(ys.mean() - pixel[0, 1]) < 1.5
             checked += 1
-    if checked == 0:
-        pytest.skip(f"scene {index}: no unoccluded sphere in the sampled frames")
+    return checked
 
 
 def test_physical_parameters_follow_the_documented_ranges():
-    from synth.scene import DENSITY_RANGE, RESTITUTION_RANGE, SLIDING_FRICTION_RANGE, SPHERE_SLIDING_FRICTION_RANGE, _shape_volume
-
     for index in INDICES:
         for obj in load("gt", index)["objects"]:
             density = obj["mass"] / _shape_volume(obj["shape"], OBJECT_HALF_SIZE)

@@ -8,8 +8,10 @@ origin gives in/out-of-view events.
 
 from __future__ import annotations
 
+import numpy as np
+
 from world.camera import look_at_camera
-from world.types import Body, BodyState, Shape, World
+from world.types import Body, BodyState, Rollout, Shape, World
 
 
 def six_object_world(with_camera: bool = True) -> World:
@@ -43,10 +45,6 @@ def two_cube_world() -> World:
 
 def hand_rollout(world: World, rollout_id: str, positions, events=(), edits=(), active=None):
     """A Rollout with given per-frame positions (T, N, 3) m in ``world.body_ids`` order; zero velocities and yaw."""
-    import numpy as np
-
-    from world.types import Rollout
-
     positions = np.asarray(positions, dtype=float)
     frames, count = positions.shape[:2]
     active = np.ones((frames, count), dtype=bool) if active is None else np.asarray(active, dtype=bool)

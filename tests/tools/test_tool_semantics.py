@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -342,8 +344,6 @@ def test_base_rollout_is_computed_once(world):
     ],
 )
 def test_fit_error_from_provenance(world, provenance, expected):
-    import dataclasses
-
     session = WorldSession("w", dataclasses.replace(world, provenance=provenance), MemoryRolloutStore())
     assert call_tool("get_world_summary", session, {})["fit_error"] == expected
 

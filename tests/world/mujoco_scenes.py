@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import mujoco
 import numpy as np
 
 from world.types import World
@@ -77,8 +78,6 @@ class MujocoRun:
 
 def run_in_mujoco(world: World, duration: float) -> MujocoRun:
     """Simulate ``world`` for ``duration`` s after settling; contact onsets of body pairs are collisions."""
-    import mujoco
-
     model = mujoco.MjModel.from_xml_string(world_to_mjcf(world))
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)

@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import argparse
 import json
+from dataclasses import replace
 from pathlib import Path
+
+from world.io import load_camera, read_json_file, world_to_dict
+from world.observations import Observations
 
 
 def register(subparsers: argparse._SubParsersAction) -> None:
@@ -24,9 +28,6 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 def load_observations(path: Path, camera_path: Path | None = None):
     """Read either input format; attach the camera file when given."""
-    from world.observations import Observations
-    from world.io import load_camera, read_json_file
-
     document = read_json_file(path, "observations file")
     camera = load_camera(camera_path) if camera_path is not None else None
     if isinstance(document, dict) and "motion_trajectory" in document:
@@ -34,16 +35,14 @@ def load_observations(path: Path, camera_path: Path | None = None):
     if isinstance(document, dict) and "objects" in document:
         observations = Observations.from_dict(document)
         if camera is not None:
-            from dataclasses import replace
-
             observations = replace(observations, camera=camera)
         return observations
     raise ValueError(f"{path}: neither a CLEVRER annotation (motion_trajectory) nor an observations document (objects)")
 
 
 def run(args: argparse.Namespace) -> int:
+    # Lazy: scipy's optimizers take a second to import; the other `physmind` commands start without them.
     from world.identify.fit import FitConfig, identify
-    from world.io import world_to_dict
 
     observations = load_observations(args.observations, args.camera)
     world, report = identify(observations, FitConfig(joint=not args.no_joint))

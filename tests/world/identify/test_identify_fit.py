@@ -13,12 +13,13 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import trimesh
 
 from bench.metrics import GroundTruth, rollout_collisions
-from world.identify.fit import FitConfig, identify
+from world.identify.fit import FitConfig, identify, prior_mass
 from world.observations import ObjectTrack, Observations, default_shape
 from world.rollout import simulate
-from world.types import Body, BodyState, Edit, World
+from world.types import Body, BodyState, Edit, Shape, World
 
 FIXTURES = Path(__file__).resolve().parents[2] / "data" / "synth"
 
@@ -135,11 +136,6 @@ def test_fit_report_says_what_was_defaulted():
 
 
 def test_mass_prior_uses_the_mesh_volume_when_there_is_one(tmp_path):
-    import trimesh
-
-    from world.identify.fit import prior_mass
-    from world.types import Shape
-
     path = tmp_path / "block.stl"
     trimesh.creation.box(extents=(0.4, 0.2, 0.1)).export(path)
     track = ObjectTrack(0, Shape("cube", half_extent=0.2, mesh_path=str(path)), np.arange(2), np.zeros((2, 3)),

@@ -169,7 +169,7 @@ def _bounce_platform(rng: np.random.Generator, index: int) -> Layout:
         x_land = x_e + 0.5
     zone = StaticBox(102, "zone", (x_land + rng.uniform(-0.05, 0.05), yo, 0.001), (0.15, 0.3, 0.001))
     t1 = math.sqrt(2 * (z0 - 0.5) / G)
-    boundary = int(math.ceil((t1 + 0.16) * FPS))
+    boundary = int(math.ceil((t1 + 0.28) * FPS))
     horizon = boundary + 40
     camera = _camera(rng, (x_e - 0.6, 0.0, 0.5))
     phase = PhaseSpec(0, horizon, (floor(), platform, zone), ((0, start),))

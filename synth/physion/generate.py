@@ -64,6 +64,12 @@ def annotation_document(sampled: SampledTrial) -> dict:
     }
 
 
+def _realised(sampled: SampledTrial) -> dict:
+    impacts = [(t, e) for run in sampled.runs for t, e in run.impacts]
+    return {"impacts": [{"time": round(t, 4), "restitution": round(e, 4)} for t, e in impacts],
+            "median": round(float(np.median([e for _, e in impacts])), 4) if impacts else None}
+
+
 def ground_truth_document(sampled: SampledTrial, seed: int) -> dict:
     trial = sampled.trial
     last = sampled.runs[-1]
@@ -74,6 +80,9 @@ def ground_truth_document(sampled: SampledTrial, seed: int) -> dict:
         "property": {"kind": trial.property_kind, "object_id": trial.property_body, "value": trial.property_value,
                      "swapped_value": trial.swapped_value},
         "pair_restitution": trial.pair_restitution,
+        # restitution trials: what MuJoCo's soft contact did at the agent's static impacts (the property's
+        # value above is the contact parameter); the median is robust to grazing hits on edges
+        "realised_restitution": _realised(sampled) if trial.property_kind == "restitution" else None,
         "label": sampled.label, "swapped_label": sampled.swapped_label, "label_flips": sampled.label_flips,
         "contact_time": sampled.contact_time,
         "objects": [{"object_id": b.id, "shape": b.shape, "size": b.half_size, "mass": b.mass, "friction": b.friction,

@@ -125,6 +125,7 @@ class PhaseRun:
     step_positions: np.ndarray
     contact_steps: np.ndarray
     xml: str
+    impacts: tuple[tuple[float, float], ...] = ()  # (time s, realised restitution) of the agent's static impacts
 
 
 def run_phase(trial: TrialSpec, phase: PhaseSpec, last_frame: int) -> PhaseRun:
@@ -147,13 +148,22 @@ def run_phase(trial: TrialSpec, phase: PhaseSpec, last_frame: int) -> PhaseRun:
     total_steps = (frames - 1) * STEPS_PER_FRAME + 1
     step_positions = np.zeros((total_steps, n, 3))
     contact = np.zeros(total_steps, bool)
+    static_geoms = {mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_GEOM, f"static{b.id}") for b in phase.static_objects}
+    k_agent = ids.index(agent) if agent in ids else None
+    agent_velocity = np.zeros((total_steps, 3))
+    agent_normal = np.full((total_steps, 3), np.nan)  # normal of the agent's static contact, NaN when none
 
     def record_step(s: int) -> None:
         step_positions[s] = data.qpos.reshape(n, 7)[:, :3]
+        if k_agent is not None:
+            agent_velocity[s] = data.qvel[6 * k_agent: 6 * k_agent + 3]
         for c in range(data.ncon):
-            pair = {int(data.contact[c].geom1), int(data.contact[c].geom2)}
-            if pair == {geom_agent, geom_patient} and data.contact[c].dist <= 0:
+            g1, g2 = int(data.contact[c].geom1), int(data.contact[c].geom2)
+            if {g1, g2} == {geom_agent, geom_patient} and data.contact[c].dist <= 0:
                 contact[s] = True
+            if geom_agent in (g1, g2) and ({g1, g2} - {geom_agent}) <= static_geoms:
+                normal = np.array(data.contact[c].frame[:3])  # from geom1 to geom2
+                agent_normal[s] = normal if g1 != geom_agent else -normal
 
     for f in range(frames):
         if f > 0:
@@ -169,7 +179,29 @@ def run_phase(trial: TrialSpec, phase: PhaseSpec, last_frame: int) -> PhaseRun:
         qpos[f] = data.qpos
     step_times = phase.start_time + np.arange(total_steps) * TIMESTEP
     return PhaseRun(ids, np.arange(phase.first_frame, last_frame + 1), positions, quats, velocities, qpos,
-                    step_times, step_positions, contact, xml)
+                    step_times, step_positions, contact, xml, _impacts(step_times, agent_velocity, agent_normal))
+
+
+def _impacts(times: np.ndarray, velocity: np.ndarray, normal: np.ndarray) -> tuple[tuple[float, float], ...]:
+    """Realised restitution of each static contact episode: -v.n just after / v.n just before.
+
+    Episodes shorter than a resting contact; only impacts faster than 0.3 m/s count.
+    """
+    touching = ~np.isnan(normal[:, 0])
+    out = []
+    k = 1
+    while k < len(times):
+        if touching[k] and not touching[k - 1]:
+            end = k
+            while end < len(times) and touching[end]:
+                end += 1
+            n = normal[k]
+            v_in = float(velocity[k - 1] @ n)  # n points from the surface to the agent
+            if end < len(times) and v_in < -0.3:
+                out.append((float(times[k]), float(-(velocity[end] @ n) / v_in)))
+            k = end
+        k += 1
+    return tuple(out)
 
 
 def run_trial(trial: TrialSpec) -> list[PhaseRun]:

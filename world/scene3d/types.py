@@ -219,3 +219,50 @@ class World3D:
     def role(self, role: str) -> Body3D | None:
         matches = [body for body in self.bodies if body.role == role]
         return matches[0] if matches else None
+
+
+@dataclass(frozen=True)
+class PhaseTracks:
+    """Observed tracks of one phase.
+
+    times: (T,) s, increasing; body_ids: (N,); positions, velocities: (T, N, 3)
+    m and m/s (NaN where a body is not seen); static_objects: the phase's geometry.
+    Velocities may be all NaN (positions alone are enough to identify).
+    """
+
+    times: np.ndarray
+    body_ids: tuple[int, ...]
+    positions: np.ndarray
+    velocities: np.ndarray
+    static_objects: tuple[StaticBox, ...]
+
+    def __post_init__(self) -> None:
+        times = np.asarray(self.times, float)
+        count = len(self.body_ids)
+        if times.ndim != 1 or len(times) < 1 or np.any(np.diff(times) <= 0):
+            raise ValueError("tracks.times: expected an increasing (T,) array")
+        for name in ("positions", "velocities"):
+            array = np.asarray(getattr(self, name), float)
+            if array.shape != (len(times), count, 3):
+                raise ValueError(f"tracks.{name}: expected shape {(len(times), count, 3)}, got {array.shape}")
+            object.__setattr__(self, name, array)
+        object.__setattr__(self, "times", times)
+
+
+@dataclass(frozen=True)
+class Tracks3D:
+    """Everything observed of a trial: bodies (shape, size, role; properties unknown) and one PhaseTracks per phase."""
+
+    bodies: tuple[Body3D, ...]
+    phases: tuple[PhaseTracks, ...]
+    patient_zone: int | None = None
+    gravity: float = 9.81
+
+    def __post_init__(self) -> None:
+        if not self.phases:
+            raise ValueError("tracks.phases: expected at least one phase")
+        known = {body.id for body in self.bodies}
+        for phase in self.phases:
+            missing = set(phase.body_ids) - known
+            if missing:
+                raise ValueError(f"tracks: phase lists unknown bodies {sorted(missing)}")

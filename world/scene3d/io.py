@@ -1,0 +1,89 @@
+"""Read a Physion-layout annotation (docs/formats.md, "Physion layout") into 3D tracks.
+
+The annotation lists, per observed frame, each object's 3D ``location`` and
+``velocity``; curtain frames carry no objects; ``phases`` give each phase's
+frames and static boxes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+import numpy as np
+
+from world.scene3d.types import Body3D, PhaseTracks, State3D, StaticBox, Tracks3D
+
+DEFAULT_FPS = 25.0
+
+
+@dataclass(frozen=True)
+class AnnotationTiming:
+    """fps; phase_frames: ((first, last), ...) observed frames per phase; boundary_frame: the last observed
+    frame; horizon_frames: frames the question covers (None: not stated)."""
+
+    fps: float
+    phase_frames: tuple[tuple[int, int], ...]
+    boundary_frame: int
+    horizon_frames: int | None
+
+
+def static_from_dict(document: Mapping[str, Any], where: str) -> StaticBox:
+    try:
+        return StaticBox(id=int(document["id"]), role=str(document["role"]), center=document["center"],
+                         half_extents=document["half_extents"], orientation=document.get("orientation", (0, 0, 0, 1)),
+                         kind=str(document.get("kind", "box")))
+    except KeyError as error:
+        raise ValueError(f"{where}: missing field {error.args[0]!r}") from None
+
+
+def tracks_from_annotation(document: Mapping[str, Any]) -> tuple[Tracks3D, AnnotationTiming, dict[int, dict[int, State3D]]]:
+    """Tracks per phase, the timing, and every observed state by frame: {frame: {object_id: State3D}}."""
+    for key in ("object_property", "motion_trajectory", "phases"):
+        if key not in document:
+            raise ValueError(f"annotation: missing field {key!r} (not a Physion-layout annotation)")
+    fps = float(document.get("fps", DEFAULT_FPS))
+    by_frame: dict[int, dict[int, State3D]] = {}
+    for entry in document["motion_trajectory"]:
+        states = {}
+        for obj in entry.get("objects", []):
+            velocity = obj.get("velocity") or (float("nan"),) * 3
+            states[int(obj["object_id"])] = State3D(obj["location"], (0.0, 0.0, 0.0)) if velocity is None else State3D(
+                obj["location"], np.nan_to_num(np.asarray(velocity, float)))
+        by_frame[int(entry["frame_id"])] = states
+    if not by_frame:
+        raise ValueError("annotation.motion_trajectory: no frames")
+    bodies = []
+    for k, prop in enumerate(document["object_property"]):
+        object_id = int(prop["object_id"])
+        shape = str(prop.get("shape", "cube"))
+        if shape not in ("sphere", "cube"):
+            raise ValueError(f"annotation.object_property[{k}].shape: {shape!r} is not supported in 3D (sphere or cube)")
+        size = prop.get("size")
+        if size is None:  # lowest observed centre height above the floor
+            heights = [s[object_id].position[2] for s in by_frame.values() if object_id in s]
+            size = float(np.clip(min(heights), 0.02, 1.0)) if heights else 0.1
+        bodies.append(Body3D(object_id, shape, float(size), role=prop.get("role"), color=str(prop.get("color", "gray"))))
+    phase_tracks, phase_frames = [], []
+    for n, phase in enumerate(document["phases"]):
+        first, last = (int(v) for v in phase["frames"])
+        frames = [f for f in range(first, last + 1) if f in by_frame and by_frame[f]]
+        if not frames:
+            raise ValueError(f"annotation.phases[{n}]: no observed frames in {first}..{last}")
+        ids = tuple(sorted({i for f in frames for i in by_frame[f]}))
+        positions = np.full((len(frames), len(ids), 3), np.nan)
+        velocities = np.full((len(frames), len(ids), 3), np.nan)
+        for row, f in enumerate(frames):
+            for col, object_id in enumerate(ids):
+                if object_id in by_frame[f]:
+                    positions[row, col] = by_frame[f][object_id].position
+                    velocities[row, col] = by_frame[f][object_id].velocity
+        statics = tuple(static_from_dict(box, f"annotation.phases[{n}].static_objects[{j}]")
+                        for j, box in enumerate(phase.get("static_objects", [])))
+        phase_tracks.append(PhaseTracks(np.asarray(frames) / fps, ids, positions, velocities, statics))
+        phase_frames.append((frames[0], frames[-1]))
+    boundary = int(document.get("prediction_boundary_frame", phase_frames[-1][1]))
+    horizon = document.get("horizon_frames")
+    tracks = Tracks3D(tuple(bodies), tuple(phase_tracks), document.get("patient_zone"))
+    timing = AnnotationTiming(fps, tuple(phase_frames), boundary, None if horizon is None else int(horizon))
+    return tracks, timing, by_frame

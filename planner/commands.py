@@ -146,6 +146,10 @@ def run_ask(args: argparse.Namespace) -> int:
 
 
 def run_eval(args: argparse.Namespace) -> int:
+    from planner.physion_eval import is_physion_dataset, run_physion_eval
+
+    if is_physion_dataset(args.dataset):  # Physion layout (trials.json): 3D contact prediction
+        return run_physion_eval(args)
     from world.io import load_camera
     from planner.client import ToolClient
     from planner.evaluate import build_worlds, evaluate, format_table, load_dataset

@@ -6,7 +6,8 @@ friction or restitution, light/heavy mass) and placed so that one class, the
 label is true and the other class otherwise; MuJoCo then decides the label
 (a draw whose MuJoCo label differs from the wanted one, touches before the
 prediction boundary, or is not robust to a 3 cm change of the patient is
-redrawn). Placements use the analytic engine only to aim; truth is MuJoCo's.
+redrawn; so is, for the first half of the draws, one whose label would not
+flip with the other class). Placements use the analytic engine only to aim; truth is MuJoCo's.
 Units: m, s, kg. Body ids: 0 the red agent, 1 the yellow patient, 2 the blue probe.
 Static ids start at 100 (100 is the floor).
 """
@@ -227,7 +228,11 @@ class SampledTrial:
 
 
 def sample_trial(category: str, rng: np.random.Generator, index: int, want_label: bool) -> SampledTrial:
-    """Draw layouts until MuJoCo gives ``want_label`` robustly with no touch before the boundary."""
+    """Draw layouts until MuJoCo gives ``want_label`` robustly with no touch before the boundary.
+
+    The first half of the draws also require the label to flip when the property is swapped
+    (Physion++'s matched pairs); later draws accept a trial whose label does not flip.
+    """
     for attempt in range(1, MAX_ATTEMPTS + 1):
         layout = SAMPLERS[category](rng, index)
         target = layout.low if layout.target_low else layout.high
@@ -238,5 +243,7 @@ def sample_trial(category: str, rng: np.random.Generator, index: int, want_label
         if result.label != want_label or result.touched_before_boundary or not result.robust:
             continue
         swapped = outcome(trial, run_trial(trial.with_property(trial.swapped_value)))
+        if swapped.label == result.label and attempt <= MAX_ATTEMPTS // 2:
+            continue
         return SampledTrial(trial, runs, result.label, result.contact_time, swapped.label, attempt)
     raise RuntimeError(f"{category} trial {index}: no layout gave label {want_label} in {MAX_ATTEMPTS} draws")

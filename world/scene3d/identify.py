@@ -6,7 +6,8 @@
 * restitution (per body): two ballistic arcs (p0 + v0 t - g t^2 z / 2, least
   squares with g known) around a contact with a static face are extrapolated
   to the plane at contact distance; e = -v_out.n / v_in.n. The tangential
-  change gives the surface friction of the impact, mu = |dv_t| / ((1 + e)|v_in.n|).
+  change gives the surface friction of the impact, mu = |dv_t| / ((1 + e)|v_in.n|); the time between
+  the two arcs' plane crossings is the impact's duration (soft contacts hold the body for a while).
 * mass ratio and pair restitution (per body pair): velocities just before and
   after a body-body contact from polynomial fits; momentum along the normal
   gives m_j / m_i = -dv_i.n / dv_j.n, and e = -(v_j' - v_i').n / (v_j - v_i).n.
@@ -33,6 +34,7 @@ EDGE_FRAMES = 2  # frames dropped at each end of a sliding run (landing, ramp ki
 POSITION_NOISE_FLOOR = 1e-4  # m: annotation rounding; the residual std is never taken below this
 DEFAULT_FRICTION = 0.0  # a body never seen sliding or bouncing: no friction assumed
 DEFAULT_RESTITUTION = 0.0
+MAX_IMPACT_DURATION = 0.1  # s: a longer gap between two arcs is not one impact
 
 
 @dataclass(frozen=True)
@@ -266,6 +268,8 @@ def bounce_measurements(tracks: Tracks3D, phase_index: int, gravity: float) -> l
             mu = float(np.linalg.norm(dv_t)) / ((1.0 + e) * -vn_in)
             mu_std = math.sqrt(var_in + var_out) / ((1.0 + e) * -vn_in)
             out.append(PropertyEstimate("impact_friction", body_id, mu, mu_std, 1, phase=phase_index))
+            duration = (tb[0] + t_out) - (ta[0] + t_in)  # the arcs reach the surface this far apart
+            out.append(PropertyEstimate("impact_duration", body_id, duration, 1e-3, 1, phase=phase_index))
     return out
 
 
@@ -342,7 +346,9 @@ def world_from_tracks(tracks: Tracks3D, report: FitReport3D, phase_starts: tuple
     for body in tracks.bodies:
         friction = report.get("friction", body.id) or report.get("impact_friction", body.id)
         restitution = report.get("restitution", body.id)
+        duration = report.get("impact_duration", body.id)
         bodies.append(replace(body, mass=masses[body.id],
+                              impact_duration=min(max(duration.value, 0.0), MAX_IMPACT_DURATION) if duration else 0.0,
                               friction=max(friction.value, 0.0) if friction else DEFAULT_FRICTION,
                               restitution=min(max(restitution.value, 0.0), 1.0) if restitution else DEFAULT_RESTITUTION))
     pairs = tuple(((e.body_id, e.other_id), min(max(e.value, 0.0), 1.0)) for e in report.estimates if e.kind == "pair_restitution")

@@ -74,6 +74,9 @@ class _Moving:
     p: np.ndarray
     v: np.ndarray
     face: Face | None  # supporting face, None in flight
+    dwell_until: float | None = None  # in a finite-duration impact until this time
+    dwell_face: Face | None = None
+    release_velocity: np.ndarray | None = None  # velocity when the impact ends
 
 
 def _physical_faces(static_objects: tuple[StaticBox, ...]) -> list[Face]:
@@ -97,6 +100,10 @@ def _support_face(body: Body3D, p: np.ndarray, v: np.ndarray, faces: list[Face])
 
 
 def _acceleration(m: _Moving, gravity: float) -> np.ndarray:
+    if m.dwell_face is not None:  # held at the surface: only the in-plane part of gravity acts
+        n = np.asarray(m.dwell_face.normal)
+        g_vec = np.array([0.0, 0.0, -gravity])
+        return g_vec - float(g_vec @ n) * n
     if m.face is None:
         return np.array([0.0, 0.0, -gravity])
     return sliding_acceleration(np.asarray(m.face.normal), m.v, m.body.friction, gravity)
@@ -150,6 +157,10 @@ def simulate3d(world: World3D, phase: Phase3D, horizon: float, *, start_time: fl
             resting = m.face is not None and np.linalg.norm(m.v) < 1e-12 and np.linalg.norm(a) < 1e-12
             if resting:
                 continue
+            if m.dwell_until is not None:
+                if m.dwell_until - t < best[0]:
+                    best = (max(m.dwell_until - t, 0.0), "release", (i,))
+                continue
             if m.face is not None:
                 tau = leave_face_time(m.p, m.v, a, m.face, best[0])
                 if tau is not None and tau < best[0]:
@@ -189,7 +200,7 @@ def simulate3d(world: World3D, phase: Phase3D, horizon: float, *, start_time: fl
         for i in ids:
             m = moving[i]
             segments.append(Segment(i, t, t + tau, tuple(m.p), tuple(m.v), tuple(accel[i]),
-                                    "flight" if m.face is None else ("rest" if np.linalg.norm(m.v) + np.linalg.norm(accel[i]) < 1e-12 else "slide"),
+                                    "impact" if m.dwell_face is not None else "flight" if m.face is None else ("rest" if np.linalg.norm(m.v) + np.linalg.norm(accel[i]) < 1e-12 else "slide"),
                                     None if m.face is None else m.face.box_id))
             m.p, m.v = position_at(m.p, m.v, accel[i], tau), velocity_at(m.v, accel[i], tau)
         t += tau
@@ -204,6 +215,12 @@ def simulate3d(world: World3D, phase: Phase3D, horizon: float, *, start_time: fl
             events.append(Event3D(t, "stop", (m.body.id,)))
         elif kind == "leave":
             moving[detail[0]].face = None
+        elif kind == "release":
+            m = moving[detail[0]]
+            n = np.asarray(m.dwell_face.normal)
+            # the normal part comes from the impact law, the in-plane part kept evolving during the hold
+            m.v = m.v - float(m.v @ n) * n + float(m.release_velocity @ n) * n
+            m.dwell_until = m.dwell_face = m.release_velocity = None
         elif kind == "surface":
             i, face = detail
             m = moving[i]
@@ -212,8 +229,12 @@ def simulate3d(world: World3D, phase: Phase3D, horizon: float, *, start_time: fl
             if float(m.v @ normal) < SUPPORT_SPEED and normal[2] > 0.1:
                 m.v = m.v - float(m.v @ normal) * normal
                 m.face = face
-            elif m.face is not None and float(m.v @ np.asarray(m.face.normal)) > 1e-9:
-                m.face = None  # bounced off a wall or step into the air
+            else:
+                if m.face is not None and float(m.v @ np.asarray(m.face.normal)) > 1e-9:
+                    m.face = None  # bounced off a wall or step into the air
+                if m.body.impact_duration > 0:
+                    m.dwell_until, m.dwell_face, m.release_velocity = t + m.body.impact_duration, face, m.v.copy()
+                    m.v = m.v - float(m.v @ normal) * normal
             events.append(Event3D(t, "surface", (i,), static_id=face.box_id))
         elif kind == "collision":
             i, j = detail

@@ -110,7 +110,9 @@ class Body3D:
     """A dynamic body: a sphere (half_size = radius) or a cube (half_size = half side) kept axis-aligned.
 
     mass kg > 0; restitution in [0, 1] against static surfaces; friction >= 0
-    (Coulomb, against static surfaces); role "agent", "patient" or None.
+    (Coulomb, against static surfaces); impact_duration >= 0 s: how long a
+    bounce on a static surface holds the body at the surface (0: instantaneous;
+    soft contacts take a few hundredths of a second); role "agent", "patient" or None.
     """
 
     id: int
@@ -121,6 +123,7 @@ class Body3D:
     friction: float = 0.0
     role: str | None = None
     color: str = "gray"
+    impact_duration: float = 0.0
 
     def __post_init__(self) -> None:
         if not isinstance(self.id, int) or isinstance(self.id, bool) or self.id < 0:
@@ -128,7 +131,8 @@ class Body3D:
         if self.shape not in BODY_SHAPES:
             raise ValueError(f"body {self.id}.shape: expected one of {BODY_SHAPES}, got {self.shape!r}")
         for name, value, low, high in (("half_size", self.half_size, 1e-6, math.inf), ("mass", self.mass, 1e-9, math.inf),
-                                       ("restitution", self.restitution, 0.0, 1.0), ("friction", self.friction, 0.0, math.inf)):
+                                       ("restitution", self.restitution, 0.0, 1.0), ("friction", self.friction, 0.0, math.inf),
+                                       ("impact_duration", self.impact_duration, 0.0, 1.0)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and low <= value <= high):
                 raise ValueError(f"body {self.id}.{name}: expected a finite number in [{low}, {high}], got {value!r}")
         if self.role not in BODY_ROLES:

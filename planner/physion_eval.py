@@ -63,13 +63,14 @@ class TrialRecord:
     evidence: str | None = None
     error: str | None = None
     seconds: float = 0.0
+    world: dict | None = None  # the fitted 3D world (physion.schema.json#/$defs/world3d)
 
     def to_dict(self) -> dict[str, Any]:
         correct = None if self.label is None or self.prediction is None else self.label == self.prediction
         return {"index": self.index, "category": self.category, "label": self.label, "prediction": self.prediction,
                 "correct": correct, "contact_time": self.contact_time, "closest_approach": self.closest_approach,
                 "properties": self.properties, "evidence": self.evidence, "error": self.error,
-                "seconds": round(self.seconds, 4)}
+                "seconds": round(self.seconds, 4), "world": self.world}
 
 
 def _evidence(answer) -> str:
@@ -82,7 +83,7 @@ def _evidence(answer) -> str:
 
 def evaluate_trial(directory: Path, trial: dict[str, Any]) -> TrialRecord:
     """Answer one trial from its annotation; errors become a record with ``error`` set (counted wrong)."""
-    from world.scene3d.io import tracks_from_annotation
+    from world.scene3d.io import tracks_from_annotation, world3d_to_dict
     from world.scene3d.predict import answer_contact
 
     index, category = int(trial["index"]), normalise_category(trial["category"])
@@ -95,7 +96,8 @@ def evaluate_trial(directory: Path, trial: dict[str, Any]) -> TrialRecord:
         return TrialRecord(index, category, trial.get("label"), None, error=str(error),
                            seconds=time.perf_counter() - started)
     return TrialRecord(index, category, trial.get("label"), answer.contact, answer.time, answer.closest,
-                       answer.report.to_dict(), _evidence(answer), seconds=time.perf_counter() - started)
+                       answer.report.to_dict(), _evidence(answer), seconds=time.perf_counter() - started,
+                       world=world3d_to_dict(answer.world))
 
 
 def accuracy_table(records: list[TrialRecord]) -> dict[str, tuple[int, int]]:

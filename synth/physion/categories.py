@@ -6,7 +6,8 @@ friction or restitution, light/heavy mass) and placed so that one class, the
 label is true and the other class otherwise; MuJoCo then decides the label
 (a draw whose MuJoCo label differs from the wanted one, touches before the
 prediction boundary, or is not robust to a 3 cm change of the patient is
-redrawn; so is, for the first half of the draws, one whose label would not
+redrawn; so is one whose label changes when the property changes by 4 %,
+and, for the first half of the draws, one whose label would not
 flip with the other class). Placements use the analytic engine only to aim; truth is MuJoCo's.
 Units: m, s, kg. Body ids: 0 the red agent, 1 the yellow patient, 2 the blue probe.
 Static ids start at 100 (100 is the floor).
@@ -33,6 +34,8 @@ RESTITUTION_CLASSES = ((0.3, 0.45), (0.68, 0.85))
 MASS_CLASSES = ((0.3, 0.5), (2.2, 3.5))  # blue probe mass, kg, against the 1 kg red agent
 CURTAIN_FRAMES = 10  # 0.4 s of curtain between the phases
 MAX_ATTEMPTS = 80
+LANDING_GRACE = 0.25  # s: bounce trials end this long after the later class's first floor landing
+PROPERTY_NUDGE = 0.04  # relative change of the latent property the label must survive
 
 
 def floor() -> StaticBox:
@@ -59,8 +62,8 @@ class Layout:
     target_low: bool
 
 
-def _first_floor_landing_x(bodies, statics, state: State3D, t0: float, after_static: int | None = None) -> float | None:
-    """x (m) of a sphere's first floor impact (after it has hit ``after_static``), by the analytic engine."""
+def _first_floor_landing(bodies, statics, state: State3D, t0: float, after_static: int | None = None) -> tuple[float, float] | None:
+    """x (m) and time (s) of a sphere's first floor impact (after it has hit ``after_static``), by the analytic engine."""
     phase = Phase3D(t0, statics, ((0, state),))
     rollout = simulate3d(World3D(bodies, (phase,)), phase, t0 + 3.0)
     seen = after_static is None
@@ -68,8 +71,18 @@ def _first_floor_landing_x(bodies, statics, state: State3D, t0: float, after_sta
         if event.kind == "surface" and event.static_id == after_static:
             seen = True
         elif seen and event.kind == "surface" and event.static_id == 100:
-            return float(rollout.state(0, event.time).position[0])
+            return float(rollout.state(0, event.time).position[0]), float(event.time)
     return None
+
+
+def _landing_horizon(restitutions: tuple[float, float], statics, state: State3D, t0: float, after_static: int | None,
+                     fallback: float) -> int:
+    """Horizon frame: a little after the later of the two classes' first floor landings (the question's window)."""
+    times = []
+    for e in restitutions:
+        landing = _first_floor_landing((Body3D(0, "sphere", HALF, restitution=e),), statics, state, t0, after_static)
+        times.append(landing[1] if landing else fallback)
+    return int(math.ceil((max(times) + LANDING_GRACE) * FPS))
 
 
 def _mass_collision(rng: np.random.Generator, index: int) -> Layout:
@@ -161,17 +174,17 @@ def _friction_platform(rng: np.random.Generator, index: int) -> Layout:
 def _bounce_platform(rng: np.random.Generator, index: int) -> Layout:
     low, high = rng.uniform(*RESTITUTION_CLASSES[0]), rng.uniform(*RESTITUTION_CLASSES[1])
     target_low = bool(rng.integers(2))
-    x_e, z0, vx, yo = rng.uniform(0.4, 0.8), rng.uniform(1.0, 1.3), rng.uniform(0.9, 1.3), rng.uniform(-0.2, 0.2)
+    # fast enough that the vertical phase at the platform edge (set by e) moves the landing by decimetres
+    x_e, z0, vx, yo = rng.uniform(0.4, 0.8), rng.uniform(1.0, 1.3), rng.uniform(1.6, 2.4), rng.uniform(-0.2, 0.2)
     platform = StaticBox(101, "platform", (x_e - 1.0, 0.0, 0.2), (1.0, 0.6, 0.2))
     start = State3D((x_e - 1.8, yo, z0), (vx, 0.0, 0.0))
     target = Body3D(0, "sphere", HALF, restitution=low if target_low else high)
-    x_land = _first_floor_landing_x((target,), (floor(), platform), start, 0.0)
-    if x_land is None:
-        x_land = x_e + 0.5
-    zone = StaticBox(102, "zone", (x_land + rng.uniform(-0.05, 0.05), yo, 0.001), (0.15, 0.3, 0.001))
+    landing = _first_floor_landing((target,), (floor(), platform), start, 0.0)
+    x_land = landing[0] if landing else x_e + 0.5
+    zone = StaticBox(102, "zone", (x_land + rng.uniform(-0.04, 0.04), yo, 0.001), (0.12, 0.3, 0.001))
     t1 = math.sqrt(2 * (z0 - 0.5) / G)
     boundary = int(math.ceil((t1 + 0.28) * FPS))
-    horizon = boundary + 40
+    horizon = max(boundary + 5, _landing_horizon((low, high), (floor(), platform), start, 0.0, None, 3.0))
     camera = _camera(rng, (x_e - 0.6, 0.0, 0.5))
     phase = PhaseSpec(0, horizon, (floor(), platform, zone), ((0, start),))
 
@@ -191,17 +204,17 @@ def _bounce_wall(rng: np.random.Generator, index: int) -> Layout:
     first = State3D((x_w - 1.4, yo, rng.uniform(0.6, 0.9)), (rng.uniform(2.5, 3.2), 0.0, rng.uniform(1.5, 2.2)))
     second = State3D((x_w - rng.uniform(0.9, 1.4), yo, rng.uniform(0.5, 0.8)), (rng.uniform(2.4, 3.2), 0.0, rng.uniform(1.5, 2.5)))
     target = Body3D(0, "sphere", HALF, restitution=low if target_low else high)
-    x_land = _first_floor_landing_x((target,), (floor(), wall), second, 0.0, after_static=101)
-    if x_land is None:
-        x_land = x_w - 1.0
+    landing = _first_floor_landing((target,), (floor(), wall), second, 0.0, after_static=101)
+    x_land = landing[0] if landing else x_w - 1.0
+    horizon = 50 + _landing_horizon((low, high), (floor(), wall), second, 0.0, 101, 1.8)
     camera = _camera(rng, (x_w - 1.0, 0.0, 0.6))
     p1 = PhaseSpec(0, 39, (floor(), wall), ((0, first),))
     zone = StaticBox(102, "zone", (x_land + rng.uniform(-0.05, 0.05), yo, 0.001), (0.15, 0.3, 0.001))
-    p2 = PhaseSpec(50, 100, (floor(), wall, zone), ((0, second),))
+    p2 = PhaseSpec(50, horizon, (floor(), wall, zone), ((0, second),))
 
     def build(restitution: float) -> TrialSpec:
         bodies = (Body3D(0, "sphere", HALF, 1.0, restitution=restitution, role="agent", color="red"),)
-        return TrialSpec("bounce_wall", index, bodies, (p1, p2), (40, 49), 54, 100, camera, "restitution", 0,
+        return TrialSpec("bounce_wall", index, bodies, (p1, p2), (40, 49), 54, horizon, camera, "restitution", 0,
                          swapped_value=high if restitution == low else low, patient_zone=102)
 
     return Layout(build, low, high, target_low)
@@ -242,6 +255,10 @@ def sample_trial(category: str, rng: np.random.Generator, index: int, want_label
         result = outcome(trial, runs)
         if result.label != want_label or result.touched_before_boundary or not result.robust:
             continue
+        value = trial.property_value
+        if any(outcome(nudged, run_trial(nudged)).label != result.label
+               for nudged in (trial.with_property(value * (1 - PROPERTY_NUDGE)), trial.with_property(value * (1 + PROPERTY_NUDGE)))):
+            continue  # a knife-edge outcome: MuJoCo's own answer flips with a 4 % change of the property
         swapped = outcome(trial, run_trial(trial.with_property(trial.swapped_value)))
         if swapped.label == result.label and attempt <= MAX_ATTEMPTS // 2:
             continue

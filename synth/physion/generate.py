@@ -21,18 +21,13 @@ from synth.physion.spec import CATEGORIES, FPS, QUESTION, TrialSpec
 from synth.render import write_mp4
 from synth.scene import inside_view
 from world.io import camera_to_dict
-from world.scene3d.types import StaticBox
+from world.scene3d.io import static_to_dict
 
 FORMAT_VERSION = "physion-1"
 
 
 def _r(values, digits: int = 4) -> list[float]:
     return [round(float(v), digits) for v in values]
-
-
-def static_to_dict(box: StaticBox) -> dict:
-    return {"id": box.id, "kind": box.kind, "role": box.role, "center": _r(box.center, 5),
-            "half_extents": _r(box.half_extents, 5), "orientation": _r(box.orientation, 6)}
 
 
 def annotation_document(sampled: SampledTrial) -> dict:

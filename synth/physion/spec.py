@@ -9,7 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, replace
 
-from world.scene3d.types import Body3D, State3D, StaticBox
+from synth.mjcf import CONTACT_HALF_PERIOD
+from world.scene3d.types import Body3D, Phase3D, State3D, StaticBox, World3D
 from world.types import Camera
 
 FPS = 25.0
@@ -80,3 +81,15 @@ class TrialSpec:
         old = self.property_value
         bodies = tuple(replace(b, **{self.property_kind: value}) if b.id == self.property_body else b for b in self.bodies)
         return replace(self, bodies=bodies, swapped_value=old)
+
+
+def world_from_spec(trial: TrialSpec) -> World3D:
+    """The analytic world of a trial with its true (MuJoCo parameter) properties, for tests and aiming.
+
+    A bouncing body's impacts last the generator's contact half period.
+    """
+    bodies = tuple(replace(b, impact_duration=CONTACT_HALF_PERIOD if b.restitution > 0 else 0.0) for b in trial.bodies)
+    phases = tuple(Phase3D(p.start_time, p.static_objects, p.states) for p in trial.phases)
+    ids = [b.id for b in trial.bodies]
+    pairs = tuple(((a, b), trial.pair_restitution) for n, a in enumerate(ids) for b in ids[n + 1:])
+    return World3D(bodies, phases, pair_restitution=pairs, patient_zone=trial.patient_zone)

@@ -7,12 +7,14 @@ frames and static boxes.
 
 from __future__ import annotations
 
+import json
 from dataclasses import dataclass
+from functools import lru_cache
 from typing import Any, Mapping
 
 import numpy as np
 
-from world.scene3d.types import Body3D, PhaseTracks, State3D, StaticBox, Tracks3D
+from world.scene3d.types import Body3D, Phase3D, PhaseTracks, State3D, StaticBox, Tracks3D, World3D
 
 DEFAULT_FPS = 25.0
 
@@ -39,9 +41,7 @@ def static_from_dict(document: Mapping[str, Any], where: str) -> StaticBox:
 
 def tracks_from_annotation(document: Mapping[str, Any]) -> tuple[Tracks3D, AnnotationTiming, dict[int, dict[int, State3D]]]:
     """Tracks per phase, the timing, and every observed state by frame: {frame: {object_id: State3D}}."""
-    for key in ("object_property", "motion_trajectory", "phases"):
-        if key not in document:
-            raise ValueError(f"annotation: missing field {key!r} (not a Physion-layout annotation)")
+    validate_physion(document, "annotation")
     fps = float(document.get("fps", DEFAULT_FPS))
     by_frame: dict[int, dict[int, State3D]] = {}
     for entry in document["motion_trajectory"]:
@@ -87,3 +87,62 @@ def tracks_from_annotation(document: Mapping[str, Any]) -> tuple[Tracks3D, Annot
     tracks = Tracks3D(tuple(bodies), tuple(phase_tracks), document.get("patient_zone"))
     timing = AnnotationTiming(fps, tuple(phase_frames), boundary, None if horizon is None else int(horizon))
     return tracks, timing, by_frame
+
+
+PHYSION_SCHEMA = "physion.schema.json"
+WORLD3D_FORMAT = "physmind.world3d/1"
+
+
+@lru_cache(maxsize=None)
+def _physion_validator(definition: str):
+    import jsonschema
+
+    from world.io import SCHEMA_DIR
+
+    base = json.loads((SCHEMA_DIR / PHYSION_SCHEMA).read_text())
+    schema = {"$schema": base["$schema"], "$defs": base["$defs"], "$ref": f"#/$defs/{definition}"}
+    jsonschema.Draft202012Validator.check_schema(schema)
+    return jsonschema.Draft202012Validator(schema)
+
+
+def validate_physion(document: object, definition: str) -> None:
+    """Raise ValueError (with the JSON path) unless ``document`` follows physion.schema.json's
+    ``definition`` (world3d, annotation or trials)."""
+    from jsonschema.exceptions import best_match
+
+    errors = list(_physion_validator(definition).iter_errors(document))
+    if errors:
+        first = best_match(errors)
+        where = "/".join(str(p) for p in first.absolute_path) or "(root)"
+        raise ValueError(f"{definition} document invalid at {where}: {first.message}")
+
+
+def static_to_dict(box: StaticBox) -> dict[str, Any]:
+    return {"id": box.id, "kind": box.kind, "role": box.role, "center": list(box.center),
+            "half_extents": list(box.half_extents), "orientation": list(box.orientation)}
+
+
+def world3d_to_dict(world: World3D) -> dict[str, Any]:
+    """A World3D as a JSON-ready document (physion.schema.json#/$defs/world3d); lossless."""
+    return {
+        "format": WORLD3D_FORMAT, "gravity": world.gravity,
+        "bodies": [{"id": b.id, "shape": b.shape, "half_size": b.half_size, "mass": b.mass, "restitution": b.restitution,
+                    "friction": b.friction, "impact_duration": b.impact_duration, "role": b.role, "color": b.color}
+                   for b in world.bodies],
+        "phases": [{"start_time": p.start_time, "static_objects": [static_to_dict(b) for b in p.static_objects],
+                    "states": [{"object_id": i, "position": list(s.position), "velocity": list(s.velocity)} for i, s in p.states]}
+                   for p in world.phases],
+        "pair_restitution": [{"bodies": list(pair), "restitution": e} for pair, e in world.pair_restitution],
+        "patient_zone": world.patient_zone, "provenance": dict(world.provenance),
+    }
+
+
+def world3d_from_dict(document: Mapping[str, Any]) -> World3D:
+    validate_physion(document, "world3d")
+    bodies = tuple(Body3D(b["id"], b["shape"], b["half_size"], b["mass"], b["restitution"], b["friction"], b["role"],
+                          b["color"], b["impact_duration"]) for b in document["bodies"])
+    phases = tuple(Phase3D(p["start_time"], tuple(static_from_dict(s, "world3d.phases.static_objects") for s in p["static_objects"]),
+                           tuple((s["object_id"], State3D(s["position"], s["velocity"])) for s in p["states"]))
+                   for p in document["phases"])
+    pairs = tuple(((int(e["bodies"][0]), int(e["bodies"][1])), float(e["restitution"])) for e in document["pair_restitution"])
+    return World3D(bodies, phases, document["gravity"], pairs, document["patient_zone"], dict(document["provenance"]))

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import sys
 import time
 from dataclasses import dataclass
@@ -28,6 +29,21 @@ TABLE_COLUMNS: tuple[tuple[str, str], ...] = (
 )
 PAPER_ROW = {"friction_platform": 57.29, "friction_collision": 64.06, "bounce_platform": 59.38, "bounce_wall": 64.06,
              "mass_collision": 54.69, "overall": 59.64}
+
+
+CONTACT_QUESTION = re.compile(r"^\s*will the (\w+) (?:object|one|agent) (?:contact|touch|hit) the (\w+) (?:object|one|patient|zone|area)\s*\??\s*$", re.I)
+ROLE_COLOURS = {"red": "agent", "yellow": "patient"}  # Physion++'s cues: red agent, yellow patient
+
+
+def parse_contact_question(text: str | None) -> tuple[str, str]:
+    """'Will the red object contact the yellow object?' -> ("agent", "patient"); ValueError otherwise."""
+    match = CONTACT_QUESTION.match(text or "Will the red object contact the yellow object?")
+    if not match:
+        raise ValueError(f"question: not a contact question of the form 'Will the red object contact the yellow object?': {text!r}")
+    roles = tuple(ROLE_COLOURS.get(colour.lower()) for colour in match.groups())
+    if roles != ("agent", "patient"):
+        raise ValueError(f"question: only the red agent and the yellow patient can be asked about, got {match.groups()}")
+    return roles
 
 
 def is_physion_dataset(path: Path) -> bool:
@@ -89,6 +105,7 @@ def evaluate_trial(directory: Path, trial: dict[str, Any]) -> TrialRecord:
     index, category = int(trial["index"]), normalise_category(trial["category"])
     started = time.perf_counter()
     try:
+        parse_contact_question(trial.get("question"))
         document = read_json_file(directory / "annotations" / f"annotation_{index:05d}.json", "annotation")
         tracks, timing, states = tracks_from_annotation(document)
         answer = answer_contact(tracks, timing, states)

@@ -109,3 +109,14 @@ def test_physmind_eval_on_a_physion_layout(tmp_path: Path, capsys):
         validate_physion(record["world"], "world3d")
     assert report["accuracy"]["overall"] == pytest.approx(
         100.0 * sum(r["prediction"] == r["label"] for r in report["trials"]) / len(entries), abs=0.01)
+
+
+def test_contact_question_is_parsed():
+    from planner.physion_eval import parse_contact_question
+
+    assert parse_contact_question("Will the red object contact the yellow object?") == ("agent", "patient")
+    assert parse_contact_question("will the red one touch the yellow zone") == ("agent", "patient")
+    with pytest.raises(ValueError, match="only the red agent"):
+        parse_contact_question("Will the blue object contact the yellow object?")
+    with pytest.raises(ValueError, match="not a contact question"):
+        parse_contact_question("What color is the cube?")

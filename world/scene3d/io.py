@@ -44,13 +44,21 @@ def tracks_from_annotation(document: Mapping[str, Any]) -> tuple[Tracks3D, Annot
     validate_physion(document, "annotation")
     fps = float(document.get("fps", DEFAULT_FPS))
     by_frame: dict[int, dict[int, State3D]] = {}
+    missing_velocity: list[tuple[int, int]] = []
     for entry in document["motion_trajectory"]:
         states = {}
         for obj in entry.get("objects", []):
-            velocity = obj.get("velocity") or (float("nan"),) * 3
-            states[int(obj["object_id"])] = State3D(obj["location"], (0.0, 0.0, 0.0)) if velocity is None else State3D(
-                obj["location"], np.nan_to_num(np.asarray(velocity, float)))
+            object_id, frame = int(obj["object_id"]), int(entry["frame_id"])
+            if obj.get("velocity") is None:
+                missing_velocity.append((frame, object_id))
+            states[object_id] = State3D(obj["location"], obj.get("velocity") or (0.0, 0.0, 0.0))
         by_frame[int(entry["frame_id"])] = states
+    for frame, object_id in missing_velocity:  # finite differences over the neighbouring frames
+        around = [f for f in (frame - 1, frame, frame + 1) if object_id in by_frame.get(f, {})]
+        if len(around) >= 2:
+            span = (around[-1] - around[0]) / fps
+            velocity = (np.subtract(by_frame[around[-1]][object_id].position, by_frame[around[0]][object_id].position)) / span
+            by_frame[frame][object_id] = State3D(by_frame[frame][object_id].position, velocity)
     if not by_frame:
         raise ValueError("annotation.motion_trajectory: no frames")
     bodies = []

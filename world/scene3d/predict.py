@@ -10,8 +10,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from world.scene3d.identify import FitReport3D, identify_properties, world_from_tracks
 from world.scene3d.io import AnnotationTiming
+from world.scene3d.motion import gap_between, gap_to_static
 from world.scene3d.rollout import predict_contact
 from world.scene3d.types import State3D, Tracks3D, World3D
 
@@ -44,10 +47,7 @@ def answer_contact(tracks: Tracks3D, timing: AnnotationTiming, states_by_frame: 
 
 
 def _closest_approach(world: World3D, rollout, start: float) -> float | None:
-    import numpy as np
-
-    from world.scene3d.motion import gap_between, gap_to_static
-
+    """Smallest agent-patient gap (m) over the continuation, sampled at 200 instants."""
     agent = world.role("agent")
     times = np.linspace(start, rollout.end_time, 200)
     centres = rollout.positions(agent.id, times)

@@ -273,6 +273,22 @@ def bounce_measurements(tracks: Tracks3D, phase_index: int, gravity: float) -> l
     return out
 
 
+MIN_VELOCITY_CHANGE = 0.02  # m/s: a smaller change across a close approach is a near miss, not a collision
+NEAR_GAP = 0.08  # m: a closest approach below this may hide a contact between two frames
+
+
+def _contact_episodes(gap: np.ndarray) -> list[tuple[int, int]]:
+    """[start, stop) frame ranges in contact (gap <= 1 cm), plus empty ranges (k, k) for a close
+    approach whose contact fell between frames k - 1 and k (the velocities then tell)."""
+    episodes = _runs(gap <= 0.01)
+    covered = {k for a, b in episodes for k in range(max(a - 1, 0), b + 1)}
+    for k in range(1, len(gap) - 1):
+        if gap[k] <= gap[k - 1] and gap[k] <= gap[k + 1] and gap[k] < NEAR_GAP and k not in covered:
+            after = k + 1 if gap[k + 1] < gap[k - 1] else k  # the contact lies on the side of the closer neighbour
+            episodes.append((after, after))
+    return sorted(episodes)
+
+
 def collision_measurements(tracks: Tracks3D, phase_index: int, window: int = 6) -> list[PropertyEstimate]:
     """Mass ratio m_j / m_i and pair restitution from each body-body contact episode."""
     phase = tracks.phases[phase_index]
@@ -282,12 +298,12 @@ def collision_measurements(tracks: Tracks3D, phase_index: int, window: int = 6) 
         for j in range(i + 1, len(ids)):
             bi, bj = _body(tracks, ids[i]), _body(tracks, ids[j])
             gap = gap_between(bi, bj, np.nan_to_num(phase.positions[:, i], nan=1e3), np.nan_to_num(phase.positions[:, j], nan=-1e3))
-            for start, stop in _runs(gap <= 0.01):
+            for start, stop in _contact_episodes(gap):
                 before = slice(max(start - window, 0), start)
                 after = slice(stop, min(stop + window, len(phase.times)))
                 if before.stop - before.start < 3 or after.stop - after.start < 3:
                     continue
-                t_c = 0.5 * (phase.times[start] + phase.times[stop - 1])
+                t_c = 0.5 * (phase.times[start - 1] + phase.times[stop])  # between the last free frames
                 velocities, variances = [], []
                 for k in (i, j):
                     for window_slice in (before, after):
@@ -301,7 +317,7 @@ def collision_measurements(tracks: Tracks3D, phase_index: int, window: int = 6) 
                 normal = contact_normal(bi, bj, phase.positions[start - 1, i], phase.positions[start - 1, j])
                 dvi, dvj = float((vi2 - vi) @ normal), float((vj2 - vj) @ normal)
                 closing = float((vi - vj) @ normal)
-                if abs(dvj) < 1e-3 or closing <= 1e-3:
+                if abs(dvj) < MIN_VELOCITY_CHANGE or closing <= 1e-3:
                     continue
                 var = [float(v @ normal**2) for v in variances]
                 ratio = -dvi / dvj

@@ -30,6 +30,7 @@ from world.scene3d.types import Body3D, Face, Phase3D, State3D, Tracks3D, World3
 TOUCH_DISTANCE = 0.012  # m: a centre this close to its contact distance from a face is touching it
 MOVING_SPEED = 0.05  # m/s: slower counts as at rest for friction fits
 MIN_SLIDE_FRAMES = 5
+MIN_ARC_FRAMES = 2  # a ballistic arc with g known is fixed by two frames
 EDGE_FRAMES = 2  # frames dropped at each end of a sliding run (landing, ramp kink, soft-contact settling)
 POSITION_NOISE_FLOOR = 1e-4  # m: annotation rounding; the residual std is never taken below this
 DEFAULT_FRICTION = 0.0  # a body never seen sliding or bouncing: no friction assumed
@@ -222,7 +223,7 @@ def bounce_measurements(tracks: Tracks3D, phase_index: int, gravity: float) -> l
         seen = np.all(np.isfinite(pos), axis=1)
         flying = seen & ~_touching(body, faces, np.nan_to_num(pos)).any(axis=1) & ~_near_other_bodies(tracks, phase_index, k)
         flying, breaks = _split_at_impacts(phase.times, pos, flying, gravity)
-        arcs = [(a, b) for a0, b0 in _runs(flying) for a, b in _cut(a0, b0, breaks) if b - a >= 3]
+        arcs = [(a, b) for a0, b0 in _runs(flying) for a, b in _cut(a0, b0, breaks) if b - a >= MIN_ARC_FRAMES]
         for (a0, a1), (b0, b1) in zip(arcs, arcs[1:]):
             if b0 - a1 > 2:
                 continue  # the arcs must be separated by one short contact

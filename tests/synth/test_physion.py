@@ -120,3 +120,23 @@ def test_contact_question_is_parsed():
         parse_contact_question("Will the blue object contact the yellow object?")
     with pytest.raises(ValueError, match="not a contact question"):
         parse_contact_question("What color is the cube?")
+
+
+@pytest.mark.parametrize("category, kind, tolerance", [("friction_collision", "friction", 0.10),
+                                                        ("friction_platform", "friction", 0.10),
+                                                        ("mass_collision", "mass_ratio", 0.20)])
+def test_identified_property_against_mujoco(category, kind, tolerance):
+    from synth.physion.generate import annotation_document
+
+    k = 2
+    sampled = sample_trial(category, np.random.default_rng([SEED, CATEGORIES.index(category), k]), k, want_label=True)
+    tracks, _, _ = tracks_from_annotation(json.loads(json.dumps(annotation_document(sampled))))
+    first_phase = (0,)  # before the curtain (or the whole observed phase without one)
+    if kind == "mass_ratio":
+        estimate = identify_properties(tracks, first_phase).get("mass_ratio", 0)
+        truth = next(b.mass for b in sampled.trial.bodies if b.id == estimate.other_id)
+    else:
+        estimate = identify_properties(tracks, first_phase).get(kind, sampled.trial.property_body)
+        truth = sampled.trial.property_value
+    assert estimate is not None and abs(estimate.value - truth) <= tolerance * truth
+    assert estimate.std < 0.05 * truth  # the stated uncertainty is small on clean tracks

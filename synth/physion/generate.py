@@ -15,6 +15,7 @@ from pathlib import Path
 import mujoco
 import numpy as np
 
+from synth.mjcf import TIMESTEP
 from synth.physion.categories import SampledTrial, sample_trial
 from synth.physion.mujoco_run import render_trial
 from synth.physion.spec import CATEGORIES, FPS, QUESTION, TrialSpec
@@ -22,6 +23,7 @@ from synth.render import write_mp4
 from synth.scene import inside_view
 from world.io import camera_to_dict
 from world.scene3d.io import static_to_dict
+from world.types import STANDARD_GRAVITY
 
 FORMAT_VERSION = "physion-1"
 
@@ -71,7 +73,7 @@ def ground_truth_document(sampled: SampledTrial, seed: int) -> dict:
     return {
         "scene_index": trial.index, "category": trial.category,
         "generator": {"version": FORMAT_VERSION, "seed": seed, "sampling_attempts": sampled.attempts},
-        "physics": {"engine": "mujoco", "mujoco_version": mujoco.__version__, "timestep": 0.002, "gravity": 9.81},
+        "physics": {"engine": "mujoco", "mujoco_version": mujoco.__version__, "timestep": TIMESTEP, "gravity": STANDARD_GRAVITY},
         "property": {"kind": trial.property_kind, "object_id": trial.property_body, "value": trial.property_value,
                      "swapped_value": trial.swapped_value},
         "pair_restitution": trial.pair_restitution,

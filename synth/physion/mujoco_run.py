@@ -24,6 +24,7 @@ from synth.physion.spec import FPS, PhaseSpec, TrialSpec
 from synth.scene import COLOR_RGB, camera_fovy_deg
 from world.scene3d.motion import ZONE_TOUCH_TOLERANCE, gap_to_static
 from world.scene3d.types import Body3D, StaticBox
+from world.types import STANDARD_GRAVITY
 
 STEPS_PER_FRAME = int(round(1.0 / (FPS * TIMESTEP)))
 STATIC_RGBA = {"floor": "0.55 0.55 0.56 1", "platform": "0.45 0.36 0.28 1", "ramp": "0.5 0.42 0.3 1",
@@ -85,7 +86,7 @@ def build_phase_xml(trial: TrialSpec, phase: PhaseSpec) -> tuple[str, tuple[int,
             pairs.append(f'<pair geom1="geom{a.id}" geom2="geom{b.id}" condim="1" solref="{_fmt([-stiffness, -damping])}" '
                          f'solimp="0.99 0.99 0.001"/>')
     xml = f"""<mujoco model="physion_{trial.category}_{trial.index:05d}">
-  <option timestep="{TIMESTEP}" integrator="implicitfast" cone="elliptic" gravity="0 0 -9.81"/>
+  <option timestep="{TIMESTEP}" integrator="implicitfast" cone="elliptic" gravity="0 0 {-STANDARD_GRAVITY}"/>
   <visual>
     <global offwidth="{cam.width}" offheight="{cam.height}"/>
     <quality shadowsize="2048" offsamples="4"/>

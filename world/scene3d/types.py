@@ -12,6 +12,8 @@ from typing import Mapping
 
 import numpy as np
 
+from world.types import STANDARD_GRAVITY
+
 STATIC_ROLES: tuple[str, ...] = ("floor", "platform", "ramp", "wall", "pillar", "zone")
 BODY_SHAPES: tuple[str, ...] = ("sphere", "cube")
 BODY_ROLES: tuple[str | None, ...] = ("agent", "patient", None)
@@ -186,7 +188,7 @@ class World3D:
 
     bodies: tuple[Body3D, ...]
     phases: tuple[Phase3D, ...]
-    gravity: float = 9.81
+    gravity: float = STANDARD_GRAVITY
     pair_restitution: tuple[tuple[tuple[int, int], float], ...] = ()
     patient_zone: int | None = None
     provenance: Mapping[str, object] = field(default_factory=dict)
@@ -260,7 +262,7 @@ class Tracks3D:
     bodies: tuple[Body3D, ...]
     phases: tuple[PhaseTracks, ...]
     patient_zone: int | None = None
-    gravity: float = 9.81
+    gravity: float = STANDARD_GRAVITY
 
     def __post_init__(self) -> None:
         if not self.phases:

@@ -152,7 +152,11 @@ def run_ask(args: argparse.Namespace) -> int:
 
 def run_eval(args: argparse.Namespace) -> int:
     # Lazy: perception and scipy take seconds to import; every other `physmind` command starts without them.
+    from physmind.physion_eval import is_physion_dataset, run_physion_eval
     from physmind.pipeline import build_worlds
+
+    if is_physion_dataset(args.dataset):  # Physion layout (trials.json): 3D contact prediction
+        return run_physion_eval(args)
 
     if args.workers < 1:
         raise ValueError(f"--workers: expected >= 1, got {args.workers}")

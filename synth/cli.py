@@ -23,6 +23,8 @@ def register(subparsers) -> None:
     parser.add_argument("--seed", type=int, default=0, help="dataset seed (default 0)")
     parser.add_argument("--start-index", type=int, default=0, help="index of the first scene (default 0)")
     parser.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
+    parser.add_argument("--suite", choices=("clevrer", "physion"), default="clevrer",
+                        help="clevrer (default) or physion: the five Physion++ categories, --scenes trials each")
     parser.set_defaults(handler=run_generate)
     inner = parser.add_subparsers(dest="synth_command", metavar="{contact-sheet}")
     sheet = inner.add_parser("contact-sheet", help="tile frames of generated videos into one PNG")
@@ -51,6 +53,10 @@ def _one_scene(job: tuple[str, int, int]):
 
 
 def run_generate(args: argparse.Namespace) -> int:
+    if getattr(args, "suite", "clevrer") == "physion":
+        from synth.physion.cli import run_physion
+
+        return run_physion(args)
     if args.out is None:
         raise ValueError("--out: required (output directory)")
     if args.scenes is None or args.scenes < 1:

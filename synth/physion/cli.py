@@ -1,0 +1,57 @@
+"""``physmind synth --suite physion``: the handler behind the flag (registered by synth/cli.py).
+
+    physmind synth --suite physion --out DIR --scenes N [--seed S] [--start-index K] [--workers W]
+
+N trials per category (5 N in all), ``--start-index`` is the first k within
+each category. Heavy imports (MuJoCo, PyAV) happen inside the handler.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def _one_trial(job: tuple[str, int, str, int, int]):
+    from synth.physion.generate import generate_trial
+
+    out, seed, category, k, per_category = job
+    return generate_trial(Path(out), seed, category, k, per_category)
+
+
+def run_physion(args: argparse.Namespace) -> int:
+    if args.out is None:
+        raise ValueError("--out: required (output directory)")
+    if args.scenes is None or args.scenes < 1:
+        raise ValueError(f"--scenes: expected an integer >= 1 (trials per category), got {args.scenes!r}")
+    if args.start_index < 0 or args.workers < 1 or args.seed < 0:
+        raise ValueError("--start-index and --seed must be >= 0, --workers >= 1")
+    import synth.physion  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
+    from tqdm import tqdm
+
+    from synth.physion.generate import summary_table, write_trials
+    from synth.physion.spec import CATEGORIES
+
+    args.out.mkdir(parents=True, exist_ok=True)
+    per_category = args.start_index + args.scenes
+    jobs = [(str(args.out), args.seed, category, k, per_category)
+            for category in CATEGORIES for k in range(args.start_index, per_category)]
+    results = []
+    with tqdm(total=len(jobs), desc="synth physion", unit="trial") as bar:
+        if args.workers == 1:
+            for job in jobs:
+                results.append(_one_trial(job))
+                bar.update(1)
+        else:
+            import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+
+            context = multiprocessing.get_context("spawn")
+            with ProcessPoolExecutor(max_workers=args.workers, mp_context=context) as pool:
+                for future in as_completed([pool.submit(_one_trial, job) for job in jobs]):
+                    results.append(future.result())
+                    bar.update(1)
+    path = write_trials(args.out, [entry for entry, _ in results])
+    print(summary_table([stats for _, stats in results]))
+    print(f"wrote {len(results)} trials to {args.out} ({path})")
+    return 0

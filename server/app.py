@@ -17,6 +17,7 @@ from __future__ import annotations
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
+from fastapi.middleware.cors import CORSMiddleware
 
 from server import routes_meta, routes_rollouts, routes_tools, routes_worlds
 from server.errors import install_error_handlers
@@ -25,7 +26,8 @@ from server.middleware import RequestMiddleware
 from server.openapi import install_openapi
 from server.routes_meta import API_VERSION
 from server.settings import Settings
-from server.store import SqliteStore
+from server.datadir import lock_data_dir, open_store
+from server.workers import WorkerPool
 from server.world_registry import WorldRegistry
 from tools.registry import tool_registry
 
@@ -44,16 +46,21 @@ def include_routes(app: FastAPI) -> None:
 def create_app(settings: Settings | None = None) -> FastAPI:
     """The FastAPI app with its SQLite registry under ``settings.data_dir``."""
     settings = settings or Settings.from_env()
-    store = SqliteStore(settings.database_path)
+    data_lock = lock_data_dir(settings.data_dir)
+    store = open_store(settings.database_path)
     registry = WorldRegistry(store, settings)
+    pool = WorkerPool(settings, registry)
     logger = get_logger(settings.log_level)
 
     @asynccontextmanager
     async def lifespan(_: FastAPI):
         logger.info("startup", extra={"fields": {"data_dir": str(settings.data_dir), "auth": bool(settings.api_key),
                                                   "tools": list(tool_registry())}})
+        pool.warm_up()
         yield
+        pool.shutdown()
         store.close()
+        data_lock.close()
 
     app = FastAPI(
         title="PhysMind tool server",
@@ -67,8 +74,12 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.settings = settings
     app.state.registry = registry
     app.state.store = store
+    app.state.pool = pool
     install_error_handlers(app, logger)
     include_routes(app)
     install_openapi(app, auth_required=bool(settings.api_key))
-    app.add_middleware(RequestMiddleware, settings=settings)
+    if settings.cors_origins:  # off unless origins are listed: no browser page may call the API by default
+        app.add_middleware(CORSMiddleware, allow_origins=list(settings.cors_origins), allow_methods=["GET", "POST", "DELETE"],
+                           allow_headers=["Authorization", "Content-Type", "X-Request-ID"], expose_headers=["X-Request-ID"])
+    app.add_middleware(RequestMiddleware, settings=settings)  # added last: runs first
     return app

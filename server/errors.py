@@ -16,24 +16,18 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import Response
 from starlette.exceptions import HTTPException as StarletteHTTPException
+from starlette.routing import Match
 
 from schemas import read_schema
 from tools.errors import ToolError, invalid_argument, json_pointer
 
 ERROR_SCHEMA_NAME = "error.schema.json"
-MAX_ECHO_CHARS = 80
 
 
 def error_schema() -> dict:
     """The error envelope's JSON Schema, without the document keywords OpenAPI does not need."""
     schema = read_schema(ERROR_SCHEMA_NAME)
     return {k: v for k, v in schema.items() if k not in ("$schema", "$id")}
-
-
-def echo(value: Any, limit: int = MAX_ECHO_CHARS) -> str:
-    """``repr(value)`` cut to ``limit`` characters, so an error never echoes unbounded input."""
-    text = repr(value)
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 # -- JSON bodies ---------------------------------------------------------------------
@@ -53,6 +47,11 @@ def json_bytes(payload: Any) -> bytes:
         return json.dumps(payload, separators=(",", ":"), allow_nan=False).encode()
     except ValueError:
         return json.dumps(_finite(payload), separators=(",", ":"), allow_nan=False).encode()
+
+
+def encoded_response(body: bytes, status: int = 200) -> Response:
+    """A response whose JSON body is already encoded (by a worker)."""
+    return Response(content=body, status_code=status, media_type="application/json")
 
 
 def json_response(payload: Any, status: int = 200, headers: dict[str, str] | None = None) -> Response:
@@ -93,10 +92,56 @@ def parse_json(raw: bytes, tool: str | None, empty: Any) -> Any:
         return empty
     try:
         # NaN / Infinity are Python extensions, not JSON: refuse them at the door.
-        return json.loads(raw, parse_constant=_reject_constant)
+        value = json.loads(raw, parse_constant=_reject_constant)
     except (ValueError, RecursionError) as error:
         raise ToolError(code="invalid_json", tool=tool, pointer="", status=422,
                         message=f"request body is not valid JSON: {str(error)[:200]}", expected="a JSON object") from None
+    bad = _lone_surrogate(value, [])
+    if bad is not None:
+        raise ToolError(code="invalid_json", tool=tool, pointer=json_pointer(bad), status=422,
+                        message="a string holds a lone UTF-16 surrogate (e.g. \\ud800), which is not Unicode text",
+                        expected="strings of valid Unicode characters")
+    return value
+
+
+def _lone_surrogate(value: Any, path: list) -> list | None:
+    """The path to the first string (key or value) with a lone surrogate, or None."""
+    if isinstance(value, str):
+        try:
+            value.encode("utf-8")
+        except UnicodeEncodeError:
+            return path
+        return None
+    if isinstance(value, dict):
+        for key, item in value.items():
+            found = _lone_surrogate(key, [*path, key]) if isinstance(key, str) else None
+            found = found if found is not None else _lone_surrogate(item, [*path, key])
+            if found is not None:
+                return [p.encode("utf-8", "backslashreplace").decode() if isinstance(p, str) else p for p in found]
+        return None
+    if isinstance(value, list):
+        for index, item in enumerate(value):
+            found = _lone_surrogate(item, [*path, index])
+            if found is not None:
+                return found
+    return None
+
+
+def allowed_methods(request: Request) -> list[str]:
+    """Every method some route accepts on this path (Starlette's own 405 names only the first route's)."""
+    scope = {**request.scope, "method": "\0"}
+    methods: set[str] = set()
+
+    def visit(routes: Any) -> None:
+        for route in routes:
+            nested = getattr(route, "original_router", None)  # FastAPI wraps included routers
+            if nested is not None:
+                visit(nested.routes)
+            elif route.matches(scope)[0] is Match.PARTIAL:
+                methods.update(getattr(route, "methods", None) or ())
+
+    visit(request.app.router.routes)
+    return sorted(methods)
 
 
 # -- exception handlers ----------------------------------------------------------------
@@ -121,9 +166,8 @@ def install_error_handlers(app: FastAPI, logger: logging.Logger) -> None:
     async def _http_error(request: Request, error: StarletteHTTPException) -> Response:
         codes = {404: "route_not_found", 405: "method_not_allowed"}
         extra: dict[str, Any] = {}
-        allow = (error.headers or {}).get("Allow") or (error.headers or {}).get("allow")
-        if error.status_code == 405 and allow:
-            extra["allow"] = [m.strip() for m in allow.split(",") if m.strip()]
+        if error.status_code == 405:
+            extra["allow"] = allowed_methods(request)
         tool_error = ToolError(code=codes.get(error.status_code, "http_error"), tool=None, pointer="",
                                status=error.status_code, message=str(error.detail), expected=None, extra=extra)
         return error_response(tool_error, request_id(request))

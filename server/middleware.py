@@ -1,7 +1,9 @@
-"""Pure ASGI middleware: request ids, bearer auth, body size limit (413), JSON access log."""
+"""Pure ASGI middleware: request ids, trusted Host (400), bearer auth (401), JSON-only bodies (415),
+body size limit (413) and upload timeout (408), JSON access log."""
 
 from __future__ import annotations
 
+import asyncio
 import hmac
 import uuid
 from typing import Callable
@@ -12,8 +14,27 @@ from server.settings import Settings
 from tools.errors import ToolError
 
 
+BODY_METHODS = ("POST", "PUT", "PATCH")
+JSON_MEDIA_TYPES = ("application/json",)
+# Paths whose bodies are not JSON (a multipart upload, say): their routes check the type themselves.
+NON_JSON_BODY_PREFIXES: tuple[str, ...] = ()
+
+
+def host_name(host_header: str) -> str:
+    """The name part of a Host header: "[::1]:8000" -> "::1", "localhost:8000" -> "localhost"."""
+    host = host_header.strip().lower()
+    if host.startswith("["):
+        return host[1:host.find("]")] if "]" in host else host
+    return host.rsplit(":", 1)[0] if host.count(":") == 1 else host
+
+
+def is_json_media_type(content_type: str) -> bool:
+    media = content_type.split(";", 1)[0].strip().lower()
+    return media in JSON_MEDIA_TYPES or (media.startswith("application/") and media.endswith("+json"))
+
+
 class RequestMiddleware:
-    """Pure ASGI: request ids, bearer auth, body size limit (413), JSON access log."""
+    """Pure ASGI: the checks every request passes before any route sees it."""
 
     PUBLIC_PREFIXES = ("/healthz", "/docs", "/openapi.json", "/redoc")
 
@@ -44,7 +65,8 @@ class RequestMiddleware:
 
         path = scope.get("path", "")
         try:
-            rejection = self._authorize(path, headers)
+            rejection = (self._check_host(headers) or self._authorize(path, headers)
+                         or self._check_content_type(scope.get("method", ""), path, headers))
             if rejection is None:
                 rejection, receive = await self._limit_body(headers, receive)
             if rejection is not None:
@@ -62,6 +84,32 @@ class RequestMiddleware:
                 **state.get("log_fields", {}),
             }
             self.logger.info("request", extra={"fields": fields})
+
+    def _check_host(self, headers: dict[str, str]) -> ToolError | None:
+        """DNS rebinding guard: a browser page on evil.example resolving to 127.0.0.1 still sends its own Host."""
+        accepted = self.settings.accepted_hosts
+        if "*" in accepted or "host" not in headers:
+            return None
+        name = host_name(headers["host"])
+        if name in accepted:
+            return None
+        return ToolError(code="untrusted_host", tool=None, pointer="", status=400,
+                         message=f"Host {name[:80]!r} is not one this server answers to",
+                         expected=f"one of {list(accepted)} (add names with PHYSMIND_TRUSTED_HOSTS or --trusted-host)")
+
+    def _check_content_type(self, method: str, path: str, headers: dict[str, str]) -> ToolError | None:
+        """Only application/json bodies: a cross-site form or text/plain POST never reaches a route."""
+        if method not in BODY_METHODS or path.startswith(NON_JSON_BODY_PREFIXES):
+            return None
+        has_body = headers.get("content-length", "0") != "0" or "transfer-encoding" in headers
+        content_type = headers.get("content-type")
+        if content_type is None and not has_body:
+            return None
+        if content_type is not None and is_json_media_type(content_type):
+            return None
+        return ToolError(code="unsupported_media_type", tool=None, pointer="", status=415,
+                         message=f"request bodies must be application/json, got {(content_type or 'no Content-Type')[:80]!r}",
+                         expected="header 'Content-Type: application/json'")
 
     def _authorize(self, path: str, headers: dict[str, str]) -> ToolError | None:
         if self._api_key is None or not path.startswith("/v1"):
@@ -88,8 +136,14 @@ class RequestMiddleware:
         chunks: list[bytes] = []
         size = 0
         more = True
+        deadline = asyncio.get_running_loop().time() + self.settings.body_timeout_s
         while more:
-            message = await receive()
+            try:
+                message = await asyncio.wait_for(receive(), max(0.0, deadline - asyncio.get_running_loop().time()))
+            except asyncio.TimeoutError:
+                return ToolError(code="request_timeout", tool=None, pointer="", status=408,
+                                 message=f"the request body was not received within {self.settings.body_timeout_s} s "
+                                         "(PHYSMIND_BODY_TIMEOUT_S)", expected="a complete request body"), receive
             if message["type"] != "http.request":
                 break
             chunk = message.get("body", b"")

@@ -8,9 +8,9 @@ from fastapi import APIRouter, Query, Request
 from fastapi.responses import Response
 
 from server.contract import response_schema
-from server.errors import json_response
+from server.errors import encoded_response, json_response
 from server.openapi_docs import responses
-from server.world_registry import registry_of
+from server.world_registry import pool_of, registry_of
 
 router = APIRouter(tags=["rollouts"])
 
@@ -18,7 +18,8 @@ router = APIRouter(tags=["rollouts"])
 @router.get("/v1/worlds/{world_id}/rollouts", operation_id="list_rollouts", responses=responses(200, response_schema("rollout_list")))
 def list_rollouts(request: Request, world_id: str) -> Response:
     registry = registry_of(request)
-    registry.session(world_id)
+    if not registry.store.has_world(world_id):
+        raise registry.unknown_world(world_id)
     return json_response({"world_id": world_id, "rollouts": [
         {"rollout_id": r.rollout_id, "parent_id": r.parent_id, "created_at": r.created_at,
          "horizon_frames": r.horizon_frames, "edits": r.edits}
@@ -30,4 +31,4 @@ def list_rollouts(request: Request, world_id: str) -> Response:
             responses=responses(200, response_schema("rollout_detail")))
 async def get_rollout(request: Request, world_id: str, rollout_id: str,
                       detail: Literal["summary", "full"] = Query("summary", description="full adds the per-frame rollout document")) -> Response:
-    return json_response(await registry_of(request).rollout_summary_async(world_id, rollout_id, detail))
+    return encoded_response(await pool_of(request).call("rollout_summary", world_id, rollout_id, detail))

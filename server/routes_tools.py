@@ -8,9 +8,9 @@ from fastapi import APIRouter, Request
 from fastapi.responses import Response
 
 from server.contract import response_schema
-from server.errors import json_response, note
+from server.errors import encoded_response, json_response, note
 from server.openapi_docs import responses
-from server.world_registry import registry_of
+from server.world_registry import pool_of
 from tools.registry import get_tool, inline_tool_schema, openai_tools, tool_registry
 
 router = APIRouter(tags=["tools"])
@@ -35,8 +35,7 @@ def _tool_endpoint(fixed_name: str | None) -> Callable:
         name = fixed_name or tool_name or ""
         note(request, world_id=world_id, tool=name)
         raw = await request.body()
-        result = await registry_of(request).run_tool_async(world_id, name, raw)
-        return json_response(result)
+        return encoded_response(await pool_of(request).call("run_tool", world_id, name, raw))
 
     return run_tool
 

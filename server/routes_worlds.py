@@ -2,13 +2,15 @@
 
 from __future__ import annotations
 
+import json
+
 from fastapi import APIRouter, Request
 from fastapi.responses import Response
 
 from server.contract import response_schema
-from server.errors import json_response, note, parse_json
+from server.errors import encoded_response, json_response, note
 from server.openapi_docs import responses
-from server.world_registry import registry_of, world_body_schema
+from server.world_registry import pool_of, registry_of, world_body_schema
 
 router = APIRouter(tags=["worlds"])
 
@@ -17,10 +19,9 @@ router = APIRouter(tags=["worlds"])
              responses=responses(201, response_schema("world_created"), "the world was created"),
              openapi_extra={"requestBody": {"required": True, "content": {"application/json": {"schema": world_body_schema()}}}})
 async def create_world(request: Request) -> Response:
-    body = parse_json(await request.body(), None, None)
-    result = await registry_of(request).create_world_async(body)
-    note(request, world_id=result["world_id"])
-    return json_response(result, 201)
+    encoded = await pool_of(request).call("create_world_from_bytes", await request.body())
+    note(request, world_id=json.loads(encoded)["world_id"])
+    return encoded_response(encoded, 201)
 
 
 @router.get("/v1/worlds", operation_id="list_worlds", responses=responses(200, response_schema("world_list")))

@@ -12,22 +12,21 @@ from typing import Any
 
 import jsonschema
 from fastapi import Request
-from starlette.concurrency import run_in_threadpool
 from jsonschema.exceptions import best_match
 
 from schemas import read_schema
+from server.costs import check_cost, request_cost, tool_call_cost
 from server.errors import parse_json
 from server.settings import Settings
 from server.store import SqliteStore, WorldGone
 from tools.common import boundaries, event_record
-from tools.errors import ToolError, invalid_argument, json_pointer, limit_exceeded, not_found
+from tools.errors import ToolError, echo, invalid_argument, json_pointer, limit_exceeded, not_found
 from tools.registry import call_tool, get_tool, inline_refs, validation_error_to_tool_error
-from tools.session import BASE_ROLLOUT_ID, WorldSession, default_horizon_frames
+from tools.session import BASE_ROLLOUT_ID, MemoryRolloutStore, WorldSession, default_horizon_frames
 from world.types import Rollout
 
 WORLD_SCHEMA_NAME = "world.schema.json"
 WORLD_SOURCES = ("world", "observations", "video")
-MAX_LISTED_IDS = 100
 
 
 class WorldRegistry:
@@ -45,13 +44,18 @@ class WorldRegistry:
         return jsonschema.Draft202012Validator(read_schema(WORLD_SCHEMA_NAME))
 
     def unknown_world(self, world_id: str, tool: str | None = None) -> ToolError:
-        return not_found("world", world_id, self.store.world_ids()[:MAX_LISTED_IDS], tool=tool, pointer="")
+        return not_found("world", world_id, self.store.world_ids(), tool=tool, pointer="")
 
     def session(self, world_id: str, tool: str | None = None) -> WorldSession:
         with self._lock:
             session = self._sessions.get(world_id)
         if session is not None:
-            return session
+            # Another process (a worker, or the server that owns the directory) may have deleted it.
+            if self.store.has_world(world_id):
+                return session
+            with self._lock:
+                self._sessions.pop(world_id, None)
+            raise self.unknown_world(world_id, tool)
         world = self.store.get_world(world_id)
         if world is None:
             raise self.unknown_world(world_id, tool)
@@ -67,7 +71,7 @@ class WorldRegistry:
             raise invalid_argument(None, "", "the request body must be a JSON object", '{"world": {...world document...}}')
         for key in body:
             if key not in (*WORLD_SOURCES, "name", "horizon_frames"):
-                raise invalid_argument(None, json_pointer([key]), f"unknown property {key!r}",
+                raise invalid_argument(None, json_pointer([key]), f"unknown property {echo(key)}",
                                        f"only {[*WORLD_SOURCES, 'name', 'horizon_frames']}")
         sources = [k for k in WORLD_SOURCES if k in body]
         if len(sources) != 1:
@@ -99,27 +103,49 @@ class WorldRegistry:
                             message=str(error)[:500], expected="a valid world document (schemas/world.schema.json)") from None
         horizon = body.get("horizon_frames", default_horizon_frames(world))
         if isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < 1:
-            raise invalid_argument(None, "/horizon_frames", f"horizon_frames must be an integer >= 1, got {horizon!r}",
+            raise invalid_argument(None, "/horizon_frames", f"horizon_frames must be an integer >= 1, got {echo(horizon)}",
                                    "an integer number of frames >= 1")
         if horizon > self.settings.max_horizon_frames:
             raise limit_exceeded(None, "/world/observed_frames",
                                  f"the base rollout would need {horizon} frames, above this server's limit of "
                                  f"{self.settings.max_horizon_frames}", self.settings.max_horizon_frames)
+        check_cost(request_cost(len(world.bodies), horizon), self.settings.max_cost, tool=None,
+                   pointer="/horizon_frames" if "horizon_frames" in body else "/world/bodies", what="the base rollout")
+        self.check_storage()
         try:
             base = simulate(world, (), horizon_frames=horizon, rollout_id=BASE_ROLLOUT_ID)
-        except ValueError as error:
+        except (ValueError, FloatingPointError, OverflowError, ZeroDivisionError) as error:
             raise ToolError(code="invalid_world", tool=None, pointer="/world", status=422,
                             message=str(error)[:500], expected="a world the engine can execute") from None
         world_id = "w-" + uuid.uuid4().hex[:16]
+        # Everything is checked before anything is stored: the summary on a scratch session first
+        # (its result schema rejects non-finite values), then the world and its base rollout at once.
+        scratch = MemoryRolloutStore()
+        scratch.put_rollout(world_id, base, None)
+        try:
+            summary = call_tool("get_world_summary", WorldSession(world_id, world, scratch), {}, validate_results=True)
+            _require_finite_rollout(base)
+        except (AssertionError, ValueError, FloatingPointError, OverflowError) as error:
+            raise ToolError(code="invalid_world", tool=None, pointer="/world", status=422,
+                            message=f"the world does not execute to finite, valid values: {str(error)[:300]}",
+                            expected="physically plausible masses, sizes, velocities and fps") from None
         self.store.create_world(world_id, world, document, base, name=name or world.id)
         session = WorldSession(world_id, world, self.store, max_horizon_frames=self.settings.max_horizon_frames)
         with self._lock:
             self._sessions[world_id] = session
-        summary = call_tool("get_world_summary", session, {}, validate_results=self.settings.validate_results)
         return {"world_id": world_id, "name": name or world.id, "rollout_ids": [BASE_ROLLOUT_ID], "summary": summary}
 
-    async def create_world_async(self, body: Any) -> dict:
-        return await run_in_threadpool(self.create_world, body)
+    def check_storage(self) -> None:
+        """507 when the data directory's SQLite files exceed the storage quota."""
+        used = self.store.size_bytes()
+        if used > self.settings.max_storage_bytes:
+            raise ToolError(code="storage_quota_exceeded", tool=None, pointer="", status=507,
+                            message=f"the data directory holds {used} bytes, above this server's quota of "
+                                    f"{self.settings.max_storage_bytes} (PHYSMIND_MAX_STORAGE_BYTES); delete worlds to make room",
+                            expected="fewer stored worlds", extra={"limit": self.settings.max_storage_bytes})
+
+    def create_world_from_bytes(self, raw: bytes) -> dict:
+        return self.create_world(parse_json(raw, None, None))
 
     def delete_world(self, world_id: str) -> dict:
         if not self.store.delete_world(world_id):
@@ -132,18 +158,16 @@ class WorldRegistry:
         get_tool(tool_name)  # 404 listing the tools before anything else
         args = parse_json(raw, tool_name, {})
         session = self.session(world_id, tool_name)
+        cost = tool_call_cost(tool_name, args, len(session.world.bodies), default_horizon_frames(session.world))
+        if cost:
+            check_cost(cost, self.settings.max_cost, tool=tool_name, pointer="/horizon_frames", what=f"this {tool_name} call")
+            self.check_storage()
         try:
             return call_tool(tool_name, session, args, validate_results=self.settings.validate_results)
         except WorldGone:
             with self._lock:
                 self._sessions.pop(world_id, None)
             raise self.unknown_world(world_id, tool_name) from None
-
-    async def run_tool_async(self, world_id: str, tool_name: str, raw: bytes) -> dict:
-        return await run_in_threadpool(self.run_tool, world_id, tool_name, raw)
-
-    async def rollout_summary_async(self, world_id: str, rollout_id: str, detail: str) -> dict:
-        return await run_in_threadpool(self.rollout_summary, world_id, rollout_id, detail)
 
     def rollout_summary(self, world_id: str, rollout_id: str, detail: str) -> dict:
         session = self.session(world_id)
@@ -164,6 +188,16 @@ class WorldRegistry:
         return payload
 
 
+def _require_finite_rollout(rollout: Rollout) -> None:
+    """ValueError if any state of ``rollout`` is NaN or infinite."""
+    import numpy as np
+
+    for name in ("times", "positions", "velocities", "yaw"):
+        values = getattr(rollout, name, None)
+        if values is not None and not np.all(np.isfinite(np.asarray(values, dtype=float))):
+            raise ValueError(f"the rollout's {name} are not finite")
+
+
 def world_body_schema() -> dict:
     """The request body of POST /v1/worlds, for the OpenAPI document."""
     return {
@@ -179,6 +213,11 @@ def world_body_schema() -> dict:
         },
         "additionalProperties": False,
     }
+
+
+def pool_of(request: Request) -> Any:
+    """The WorkerPool (server.workers) of the app serving ``request``."""
+    return request.app.state.pool
 
 
 def registry_of(request: Request) -> WorldRegistry:

@@ -19,6 +19,7 @@ from __future__ import annotations
 import asyncio
 import dataclasses
 import multiprocessing
+import os
 import threading
 from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -37,8 +38,13 @@ _WORKER_REGISTRY: WorldRegistry | None = None
 
 
 # -- inside a worker -----------------------------------------------------------------
+WORKER_NICENESS = 5
+
+
 def _init_worker(settings: Settings) -> None:
     global _WORKER_REGISTRY
+    # Below the event loop's priority: under load the server still accepts, routes and answers /healthz.
+    os.nice(WORKER_NICENESS)
     _WORKER_REGISTRY = WorldRegistry(SqliteStore(settings.database_path), settings)
 
 

@@ -212,6 +212,7 @@ def world_body_schema() -> dict:
                                "description": "frames of the base rollout (default: observed frames + 20 %)"},
         },
         "additionalProperties": False,
+        "oneOf": [{"required": [source]} for source in WORLD_SOURCES],
     }
 
 

@@ -45,7 +45,8 @@ for _tool in tool_registry().values():
         f"/v1/worlds/{{world_id}}/tools/{_tool.name}", _tool_endpoint(_tool.name), methods=["POST"],
         summary=_tool.name, description=_tool.spec.description, operation_id=_tool.name,
         responses=responses(200, inline_tool_schema(f"{_tool.name}.result.json")),
-        openapi_extra={"requestBody": {"required": False, "content": {"application/json": {
+        # An empty body is {}: required only when the arguments have required properties.
+        openapi_extra={"requestBody": {"required": bool(_tool.args_schema.get("required")), "content": {"application/json": {
             "schema": inline_tool_schema(f"{_tool.name}.args.json")}}}},
     )
 # Any other name: 404 listing the tools (not in the OpenAPI spec: the routes above are the contract).

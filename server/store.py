@@ -152,6 +152,10 @@ class SqliteStore:
             while len(self._cache) > self._cache_size:
                 self._cache.popitem(last=False)
 
+    def forget_world(self, world_id: str) -> None:
+        """Drop a world's cached objects (another process deleted it)."""
+        self._forget_world(world_id)
+
     def _forget_world(self, world_id: str) -> None:
         with self._cache_lock:
             for key in [k for k in self._cache if k[0] == world_id]:

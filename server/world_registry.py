@@ -47,15 +47,17 @@ class WorldRegistry:
         return not_found("world", world_id, self.store.world_ids(), tool=tool, pointer="")
 
     def session(self, world_id: str, tool: str | None = None) -> WorldSession:
+        # Asked of SQLite every time: another process of this server (the one that answered a
+        # DELETE) may have deleted the world while this one still caches it.
+        if not self.store.has_world(world_id):
+            with self._lock:
+                self._sessions.pop(world_id, None)
+            self.store.forget_world(world_id)
+            raise self.unknown_world(world_id, tool)
         with self._lock:
             session = self._sessions.get(world_id)
         if session is not None:
-            # Another process (a worker, or the server that owns the directory) may have deleted it.
-            if self.store.has_world(world_id):
-                return session
-            with self._lock:
-                self._sessions.pop(world_id, None)
-            raise self.unknown_world(world_id, tool)
+            return session
         world = self.store.get_world(world_id)
         if world is None:
             raise self.unknown_world(world_id, tool)
@@ -199,20 +201,22 @@ def _require_finite_rollout(rollout: Rollout) -> None:
 
 
 def world_body_schema() -> dict:
-    """The request body of POST /v1/worlds, for the OpenAPI document."""
+    """The request body of POST /v1/worlds, for the OpenAPI document.
+
+    Only the source this version accepts is published; 'observations' and
+    'video' are reserved names that answer 422 unsupported_source.
+    """
     return {
         "type": "object",
-        "description": "exactly one source: 'world' (a fitted world document); 'observations' and 'video' are reserved",
+        "description": "a world document under 'world' (exactly one source; 'observations' and 'video' are reserved)",
         "properties": {
             "world": inline_refs(read_schema(WORLD_SCHEMA_NAME), read_schema, WORLD_SCHEMA_NAME),
-            "observations": {"type": "object", "description": "reserved: observations to fit (not yet available)"},
-            "video": {"type": "object", "description": "reserved: a video to perceive and fit (not yet available)"},
             "name": {"type": "string", "minLength": 1, "maxLength": 200},
             "horizon_frames": {"type": "integer", "minimum": 1,
                                "description": "frames of the base rollout (default: observed frames + 20 %)"},
         },
+        "required": ["world"],
         "additionalProperties": False,
-        "oneOf": [{"required": [source]} for source in WORLD_SOURCES],
     }
 
 

@@ -228,3 +228,10 @@ def test_list_events_clips_a_start_beyond_the_horizon(http, world_id):
     error = assert_envelope(http.post(f"/v1/worlds/{world_id}/tools/list_events", json={"frame_start": 20, "frame_end": 10}),
                             422, "invalid_arguments")
     assert error["pointer"] == "/frame_end"
+
+
+def test_a_deleted_world_is_gone_for_every_route(http, world_id):
+    assert http.get(f"/v1/worlds/{world_id}/rollouts/base").status_code == 200
+    assert http.delete(f"/v1/worlds/{world_id}").status_code == 200
+    assert_envelope(http.get(f"/v1/worlds/{world_id}/rollouts/base?detail=full"), 404, "world_not_found")
+    assert_envelope(http.post(f"/v1/worlds/{world_id}/tools/list_events", json={}), 404, "world_not_found")

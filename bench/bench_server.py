@@ -65,11 +65,13 @@ def free_port() -> int:
         return sock.getsockname()[1]
 
 
-def start_server(data_dir: str, validate_results: bool) -> tuple[subprocess.Popen, str]:
+def start_server(data_dir: str, validate_results: bool, workers: int | None = None) -> tuple[subprocess.Popen, str]:
     port = free_port()
     env = {k: v for k, v in os.environ.items() if not k.startswith("PHYSMIND_")}
     env["PHYSMIND_LOG_LEVEL"] = "WARNING"  # per-request log lines would measure stderr, not the tools
     env["PHYSMIND_VALIDATE_RESULTS"] = "1" if validate_results else "0"
+    if workers is not None:
+        env["PHYSMIND_WORKERS"] = str(workers)
     process = subprocess.Popen([sys.executable, "-m", "physmind.cli", "serve", "--host", "127.0.0.1", "--port", str(port),
                                 "--data-dir", data_dir], cwd=REPO, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     url = f"http://127.0.0.1:{port}"
@@ -219,6 +221,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--clients", type=int, default=16)
     parser.add_argument("--duration", type=float, default=5.0, help="seconds per throughput run (upper bound)")
     parser.add_argument("--max-throughput-requests", type=int, default=5000)
+    parser.add_argument("--workers", type=int, default=None, help="PHYSMIND_WORKERS of the started server (default: its own)")
     parser.add_argument("--mix", action="store_true", help="run only the mixed-tool load test with a /healthz prober")
     parser.add_argument("--no-validate-results", action="store_true", help="start the server with PHYSMIND_VALIDATE_RESULTS=0")
     args = parser.parse_args(argv)
@@ -232,7 +235,7 @@ def main(argv: list[str] | None = None) -> int:
             url = args.url.rstrip("/")
             connect(url)
         else:
-            process, url = start_server(tmp.name, not args.no_validate_results)
+            process, url = start_server(tmp.name, not args.no_validate_results, args.workers)
         status, body = request(connect(url), "POST", "/v1/worlds", {"world": six_object_world_document()})
         if status != 201:
             raise RuntimeError(f"creating the world failed: {status} {body[:300]!r}")
@@ -240,7 +243,8 @@ def main(argv: list[str] | None = None) -> int:
         tools = f"/v1/worlds/{world_id}/tools"
         if args.mix:
             result = mix_load(url, tools, args.clients, args.duration)
-            print(f"\nPhysMind tool server, tool mix, {args.clients} clients for {args.duration:g} s, {os.cpu_count()} CPUs\n")
+            print(f"\nPhysMind tool server, tool mix, {args.clients} clients for {args.duration:g} s, {os.cpu_count()} CPUs, "
+                  f"workers {args.workers if args.workers is not None else 'default'}, load average {os.getloadavg()[0]:.1f}\n")
             print("| mix req/s (200) | statuses | transport errors | /healthz p50 ms | /healthz p99 ms | /healthz max ms | probes |")
             print("|---:|---|---:|---:|---:|---:|---:|")
             print(f"| {result['rps']:.1f} | {result['statuses']} | {result['transport_errors']} | {result['healthz_p50']:.1f} | "

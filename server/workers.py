@@ -38,7 +38,7 @@ _WORKER_REGISTRY: WorldRegistry | None = None
 
 
 # -- inside a worker -----------------------------------------------------------------
-WORKER_NICENESS = 5
+WORKER_NICENESS = 10
 
 
 def _init_worker(settings: Settings) -> None:

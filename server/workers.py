@@ -21,6 +21,7 @@ import dataclasses
 import multiprocessing
 import os
 import threading
+import time
 from concurrent.futures import Executor, ProcessPoolExecutor, ThreadPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from typing import Any
@@ -39,13 +40,22 @@ _WORKER_REGISTRY: WorldRegistry | None = None
 
 # -- inside a worker -----------------------------------------------------------------
 WORKER_NICENESS = 10
+ORPHAN_CHECK_S = 1.0
 
 
-def _init_worker(settings: Settings) -> None:
+def _init_worker(settings: Settings, server_pid: int) -> None:
     global _WORKER_REGISTRY
     # Below the event loop's priority: under load the server still accepts, routes and answers /healthz.
     os.nice(WORKER_NICENESS)
+    threading.Thread(target=_exit_with_server, args=(server_pid,), daemon=True, name="physmind-orphan-watch").start()
     _WORKER_REGISTRY = WorldRegistry(SqliteStore(settings.database_path), settings)
+
+
+def _exit_with_server(server_pid: int) -> None:
+    """End this worker once the server process is gone (kill -9 leaves no orphans holding the database)."""
+    while os.getppid() == server_pid:
+        time.sleep(ORPHAN_CHECK_S)
+    os._exit(0)
 
 
 def _encode(result: Any, limit: int) -> bytes:
@@ -99,7 +109,7 @@ class WorkerPool:
             return ThreadPoolExecutor(max_workers=4, thread_name_prefix="physmind-call")
         # spawn, not fork: the server process has threads (and SQLite connections) a fork would copy.
         return ProcessPoolExecutor(max_workers=self.settings.workers, mp_context=multiprocessing.get_context("spawn"),
-                                   initializer=_init_worker, initargs=(self.settings,))
+                                   initializer=_init_worker, initargs=(self.settings, os.getpid()))
 
     def warm_up(self) -> None:
         """Start the worker processes now rather than on the first call."""

@@ -27,6 +27,7 @@ from fastapi import APIRouter, Query, Request
 from fastapi.responses import Response
 from starlette.concurrency import run_in_threadpool
 
+from server.openapi_docs import responses
 from tools.errors import limit_exceeded
 from tools.session import BASE_ROLLOUT_ID
 
@@ -127,20 +128,17 @@ def _picture(data: bytes, cache_status: str, media_type: str) -> Response:
 
 
 def _responses(media_type: str) -> dict:
-    error = {"content": {"application/json": {"schema": {"type": "object", "required": ["error"]}}}}
-    return {
-        200: {"description": "the picture", "content": {media_type: {"schema": {"type": "string", "format": "binary"}}}},
-        401: {"description": "missing or wrong bearer token (only when PHYSMIND_API_KEY is set)", **error},
-        404: {"description": "unknown world or rollout (lists the valid ids)", **error},
-        422: {"description": "invalid query parameter or the rollout is longer than the render limit", **error},
-    }
+    """The error envelope of every route, with the picture as the success body."""
+    out = responses(200)
+    out["200"] = {"description": "the picture", "content": {media_type: {"schema": {"type": "string", "format": "binary"}}}}
+    return out
 
 
 REFERENCE = Query(BASE_ROLLOUT_ID, max_length=64, description="rollout drawn beside this one (the factual 'base' by default); "
                                                                "equal to rollout_id for a single panel")
 
 
-@router.get("/v1/worlds/{world_id}/rollouts/{rollout_id}/plot.png", response_class=Response, responses=_responses("image/png"))
+@router.get("/v1/worlds/{world_id}/rollouts/{rollout_id}/plot.png", operation_id="rollout_plot", response_class=Response, responses=_responses("image/png"))
 async def rollout_plot(request: Request, world_id: str, rollout_id: str, reference: str = REFERENCE,
                        frame: int | None = Query(None, ge=0, le=1_000_000, description="draw this frame (default: last frame, full trails)"),
                        width: int = Query(480, ge=PANEL_WIDTHS[0], le=PANEL_WIDTHS[1], description="panel width, pixels")) -> Response:
@@ -155,7 +153,7 @@ async def rollout_plot(request: Request, world_id: str, rollout_id: str, referen
     return _picture(data, status, "image/png")
 
 
-@router.get("/v1/worlds/{world_id}/rollouts/{rollout_id}/video.mp4", response_class=Response, responses=_responses("video/mp4"))
+@router.get("/v1/worlds/{world_id}/rollouts/{rollout_id}/video.mp4", operation_id="rollout_video", response_class=Response, responses=_responses("video/mp4"))
 async def rollout_video(request: Request, world_id: str, rollout_id: str, reference: str = REFERENCE) -> Response:
     """Top-down h264 replay of a rollout beside its reference, with a cursor on the event timeline."""
     from render.video import encode_mp4

@@ -152,6 +152,10 @@ class SqliteStore:
             while len(self._cache) > self._cache_size:
                 self._cache.popitem(last=False)
 
+    def forget_world(self, world_id: str) -> None:
+        """Drop a world's cached objects (another process deleted it)."""
+        self._forget_world(world_id)
+
     def _forget_world(self, world_id: str) -> None:
         with self._cache_lock:
             for key in [k for k in self._cache if k[0] == world_id]:
@@ -212,6 +216,24 @@ class SqliteStore:
             world = world_from_dict(document)
             self._remember(key, world)
         return world
+
+    def check_integrity(self) -> None:
+        """sqlite3.DatabaseError unless the file is a readable database with our tables."""
+        # Reading a row reads the header and the schema; a full integrity check would be O(database).
+        self._conn().execute("SELECT world_id FROM worlds LIMIT 1").fetchone()
+
+    def has_world(self, world_id: str) -> bool:
+        return self._conn().execute("SELECT 1 FROM worlds WHERE world_id = ?", (world_id,)).fetchone() is not None
+
+    def size_bytes(self) -> int:
+        """Bytes of the database file and its WAL on disk (what the storage quota counts)."""
+        total = 0
+        for suffix in ("", "-wal"):
+            try:
+                total += Path(f"{self.path}{suffix}").stat().st_size
+            except FileNotFoundError:
+                pass
+        return total
 
     def delete_world(self, world_id: str) -> bool:
         with self._transaction() as conn:

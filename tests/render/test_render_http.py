@@ -18,7 +18,7 @@ from world.rollout import default_horizon
 @pytest.fixture()
 def client(tmp_path, monkeypatch):
     monkeypatch.setenv("PHYSMIND_MAX_RENDER_FRAMES", "200")
-    with TestClient(create_app(Settings(data_dir=tmp_path))) as http:
+    with TestClient(create_app(Settings(data_dir=tmp_path)), base_url="http://localhost") as http:
         yield http
 
 
@@ -44,14 +44,17 @@ def test_plot_png_of_base_and_edited_rollouts_cached(client, world_id):
     assert Image.open(io.BytesIO(pair.content)).size == (640, 240 + 34 + 2 * 26)
 
 
-def test_video_mp4_and_frame_limit(client, world_id, seven_world, monkeypatch):
+def test_video_mp4_and_frame_limit(client, world_id, seven_world, monkeypatch, tmp_path_factory):
     response = client.get(f"/v1/worlds/{world_id}/rollouts/base/video.mp4")
     assert response.status_code == 200 and response.headers["content-type"] == "video/mp4"
     with av.open(io.BytesIO(response.content)) as container:
         frames = sum(1 for _ in container.decode(video=0))
     assert frames == default_horizon(seven_world)
     monkeypatch.setenv("PHYSMIND_MAX_RENDER_FRAMES", "150")  # below the 154-frame horizon
-    with TestClient(create_app(Settings(data_dir=client.app.state.settings.data_dir))) as limited_client:
+    # One server per data directory (it is locked): the limited server gets its own, with the same world.
+    with TestClient(create_app(Settings(data_dir=tmp_path_factory.mktemp("limited"))), base_url="http://localhost") as limited_client:
+        created = limited_client.post("/v1/worlds", json={"world": world_to_dict(seven_world), "name": "seven"})
+        world_id = created.json()["world_id"]
         limited = limited_client.get(f"/v1/worlds/{world_id}/rollouts/base/video.mp4")
         assert limited.status_code == 422
         assert limited.json()["error"]["code"] == "limit_exceeded" and limited.json()["error"]["limit"] == 150

@@ -21,6 +21,9 @@ from schemathesis import GenerationMode
 from tools.registry import get_tool, validate_result
 
 EXAMPLES_PER_OPERATION = 25
+CONTRACT_CHECKS = [schemathesis.checks.not_a_server_error, schemathesis.checks.status_code_conformance,
+                   schemathesis.checks.content_type_conformance, schemathesis.checks.response_schema_conformance,
+                   schemathesis.checks.response_headers_conformance, schemathesis.checks.allow_header_conformance]
 TIME_BUDGET_S = 60.0
 
 
@@ -66,6 +69,8 @@ def test_fuzz_api_from_openapi(server, world_document):
                 response = case.call(base_url=server.url, timeout=60)
                 calls["count"] += 1
                 _check(response, label)
+                # The published contract: declared status codes, response schemas (errors too), headers, Allow.
+                case.validate_response(response, checks=CONTRACT_CHECKS)
                 if tool_name and response.status_code == 200:
                     calls["tool_ok"] += 1
                     validate_result(get_tool(tool_name), response.json())

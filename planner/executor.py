@@ -8,10 +8,9 @@ fetches, lazily and once per video, everything the CLEVRER programs need:
 * ``list_events`` on the base rollout: the observed events (frame <
   observed_frames), from which the causal traces are built;
 * the continuation beyond the observed frames for ``unseen_events``: the base
-  rollout when it reaches the prediction horizon, else one longer replay of
-  the same world (``simulate_edit`` with a parameter set to the value it
-  already has and ``horizon_frames``; the tool has no edit-free horizon
-  argument);
+  rollout when it reaches the prediction horizon, else ``continue_world``
+  (the unedited world to the longer horizon, restarted from the fitted
+  end-of-video state; never an edited, un-anchored replay);
 * ``counterfact_events(obj)``: ``simulate_edit(remove_object, obj)``, one
   edited rollout per removed object, reused by every question of the video,
   with ``compare_rollouts`` for the pairs the removal adds or removes and
@@ -185,10 +184,8 @@ class VideoExecutor:
                 events = [e for e in base if e.frame is not None and self.observed_frames <= e.frame < horizon]
                 self._continuation = (events, "base", self._base_call, self._base_horizon)  # type: ignore[arg-type]
             else:
-                # Same world, longer replay: an edit that sets a friction to the value it already has.
-                body = self.summary["objects"][0]
-                result = self.world.call("simulate_edit", edit_type="set_friction", object_id=body["object_id"],
-                                         value=body["friction"], horizon_frames=horizon, trajectory_detail="summary")
+                # The factual world continued without an edit: it restarts from the fitted end-of-video state.
+                result = self.world.call("continue_world", horizon_frames=horizon)
                 call = self.world.last_call.index
                 records = list(result["collisions"]) + list(result["in_out_events"])
                 events = [e for e in clevrer_events(records, float(self.summary["fps"])) if e.frame >= self.observed_frames]

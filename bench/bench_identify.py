@@ -10,7 +10,14 @@ it (``bench.metrics.score_world``):
   tolerance), over all objects and over objects seen in the video;
 * counterfactual: per removable object, F1 of the collision SET of our
   replay vs MuJoCo's re-simulation (mean over removals);
-* wall time of the fit per scene.
+* wall time of the fit per scene;
+* after the video (only when the dataset has ``future/`` from
+  ``bench.oracle_dataset``): for objects seen in the video and still moving
+  at its last frame (MuJoCo speed > STILL_MOVING_SPEED), the planar error at
+  +1/+2/+3 s of the fitted world's factual continuation (median, p90, share
+  within 10 cm), and in the same run of two baselines from the tracks the fit
+  saw: holding the last observed position, and constant velocity (least
+  squares over the last VELOCITY_WINDOW visible frames).
 
 ``--baseline`` also fits with the fixed-step integrator of the same model
 (``bench.fixed_step``, dt = 1/100 s) and the same optimiser, in the same run.
@@ -37,6 +44,53 @@ from world.identify.observations import Observations
 from world.rollout import simulate
 
 OBJECT_SIZE = 0.4  # m, side / diameter of the generator's objects: noise is a share of it
+AHEAD_SECONDS = (1.0, 2.0, 3.0)  # s after the last observed frame
+STILL_MOVING_SPEED = 0.02  # m/s: MuJoCo speed at the last observed frame above which an object "still moves"
+VELOCITY_WINDOW = 5  # frames: the constant-velocity baseline's least-squares window
+NEAR_METRES = 0.10  # "within 10 cm"
+PREDICTORS = ("world", "hold", "const-vel")
+
+
+def _future_truth(annotation: Path, index: str) -> dict | None:
+    path = annotation.parent.parent / "future" / f"scene_{index}.json"
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def _ahead_errors(world, observations: Observations, future: dict, score_simulator) -> dict[str, list[list[float]]]:
+    """Planar errors (m) per predictor and per AHEAD_SECONDS of the objects still moving after the video."""
+    fps, observed = float(future["fps"]), int(future["observed_frames"])
+    truth = np.asarray(future["positions"], dtype=float)  # (T, N, 3)
+    last = observed - 1
+    steps = [int(round(a * fps)) for a in AHEAD_SECONDS]
+    rollout = score_simulator(world, (), min(truth.shape[0], last + max(steps) + 1))
+    column = {body: k for k, body in enumerate(rollout.body_ids)}
+    tracks = {t.id: t for t in observations.objects}
+    errors: dict[str, list[list[float]]] = {p: [[] for _ in steps] for p in PREDICTORS}
+    for k, object_id in enumerate(future["object_ids"]):
+        track = tracks.get(object_id)
+        speed = np.linalg.norm(truth[last, k, :2] - truth[last - 1, k, :2]) * fps
+        if track is None or speed <= STILL_MOVING_SPEED:
+            continue
+        seen = np.flatnonzero(track.visible[:observed])
+        if seen.size < 2:
+            continue
+        window = seen[-VELOCITY_WINDOW:]
+        times = (window - last) / fps
+        velocity = np.polyfit(times, track.positions[window, :2], 1)[0] if window.size >= 2 else np.zeros(2)
+        held = track.positions[seen[-1], :2]
+        anchor_time = (seen[-1] - last) / fps
+        for j, step in enumerate(steps):
+            if last + step >= truth.shape[0]:
+                continue
+            actual = truth[last + step, k, :2]
+            predicted = {
+                "world": rollout.positions[last + step, column[object_id], :2] if object_id in column else held,
+                "hold": held,
+                "const-vel": held + velocity * (step / fps - anchor_time),
+            }
+            for name, position in predicted.items():
+                errors[name][j].append(float(np.linalg.norm(position - actual)))
+    return errors
 
 
 def _noisy(observations: Observations, sigma: float, seed: int) -> Observations:
@@ -90,7 +144,10 @@ def _evaluate(annotation: Path, noise: float, method: str) -> dict:
     base = score_simulator(world, (), truth.horizon_frames)
     future_seen = [c for c in truth.collisions if c[1] >= truth.observed_frames and set(c[0]) <= seen]
     predictive_seen = match_events(rollout_collisions(base, truth.observed_frames), future_seen)
+    future = _future_truth(annotation, index)
+    ahead = None if future is None else _ahead_errors(world, observations, future, score_simulator)
     return {
+        "ahead": ahead,
         "scene": int(index),
         "noise": noise,
         "method": method,
@@ -142,10 +199,35 @@ def summarise(rows: list[dict]) -> list[str]:
             f"{predictive.precision:>6.3f} {predictive.recall:>5.3f} {predictive.f1:>5.3f} | {seen.f1:>7.3f} | "
             f"{np.mean(cf):>5.3f} {cf_micro.f1:>5.3f} | {observed.f1:>6.3f} | {np.median(seconds):>9.2f} {np.percentile(seconds, 95):>6.2f}"
         )
+    lines += _ahead_table(rows)
     failures = [r for r in rows if "error" in r]
     if failures:
         lines.append(f"failed fits ('F' above): {len(failures)}")
         lines += [f"  scene {r['scene']} noise {r['noise']} {r['method']}: {r['error']}" for r in failures[:10]]
+    return lines
+
+
+def _ahead_table(rows: list[dict]) -> list[str]:
+    """Planar error after the video per predictor: median / p90 (cm) and share within 10 cm, per horizon."""
+    groups: dict[tuple[str, float], list[dict]] = {}
+    for row in rows:
+        if row.get("ahead"):
+            groups.setdefault((row["method"], row["noise"]), []).append(row)
+    if not groups:
+        return []
+    cells = " | ".join(f"+{a:.0f} s med  p90  <10cm" for a in AHEAD_SECONDS)
+    lines = ["", "objects still moving after the video: planar error (cm)",
+             f"{'method':<11} {'noise':>5} {'predictor':<9} {'objects':>7} | {cells}"]
+    for (method, noise), group in sorted(groups.items()):
+        for predictor in PREDICTORS:
+            parts = []
+            count = 0
+            for j in range(len(AHEAD_SECONDS)):
+                values = np.array([e for r in group for e in r["ahead"][predictor][j]]) * 100
+                count = max(count, values.size)
+                parts.append("       n/a        " if values.size == 0 else
+                             f"{np.median(values):>8.1f} {np.percentile(values, 90):>5.1f} {np.mean(values <= NEAR_METRES * 100) * 100:>4.0f}%")
+            lines.append(f"{method:<11} {noise * 100:>4.0f}% {predictor:<9} {count:>7} | " + " | ".join(parts))
     return lines
 
 

@@ -4,7 +4,10 @@
 
 Writes what ``physmind synth`` writes except the video and the masks:
 ``annotations/``, ``ground_truth/`` and ``questions.json`` (same sampler,
-same MuJoCo simulation, same question generator, same seed -> same scenes).
+same MuJoCo simulation, same question generator, same seed -> same scenes),
+plus ``future/scene_XXXXX.json``: MuJoCo's object positions up to
+``FUTURE_SECONDS`` after the last observed frame (the generator's horizon
+covers only ~2 s), for the +1/+2/+3 s prediction error of bench_identify.
 Rendering costs ~45 s a scene on the shared 2-core machine; the oracle-track
 benchmarks (bench_identify, bench_qa --skip-video) never read the video.
 """
@@ -24,6 +27,9 @@ from synth.questions import scene_questions
 from synth.simulate import simulate
 
 
+FUTURE_SECONDS = 3.0  # s after the last observed frame
+
+
 def oracle_scene(out: Path, seed: int, index: int) -> dict:
     """Annotation + ground truth + questions of scene ``index`` (the questions.json entry)."""
     spec, sim, attempts = sample_accepted_scene(seed, index)
@@ -31,6 +37,13 @@ def oracle_scene(out: Path, seed: int, index: int) -> dict:
     ground_truth = ground_truth_document(spec, sim, counterfactuals, seed, attempts)
     _dump(out / "annotations" / f"annotation_{index:05d}.json", annotation_document(spec, sim))
     _dump(out / "ground_truth" / f"scene_{index:05d}.json", ground_truth)
+    future_frames = spec.observed_frames + int(round(FUTURE_SECONDS * spec.fps)) + 1
+    longer = simulate(spec, horizon_frames=future_frames)
+    _dump(out / "future" / f"scene_{index:05d}.json", {
+        "fps": float(spec.fps), "observed_frames": int(spec.observed_frames),
+        "object_ids": [int(o.object_id) for o in spec.objects],
+        "positions": np.round(longer.positions, 5).tolist(),  # (T, N, 3) m, objects in object_ids order
+    })
     question_rng = np.random.default_rng(np.random.SeedSequence([seed, index, 1]))
     questions = scene_questions(program_scene_from_ground_truth(ground_truth), question_rng)
     return {"scene_index": index, "video_filename": video_filename(index), "questions": questions}

@@ -54,6 +54,10 @@ class FitConfig:
     tolerance: float = 1e-4
     # Bodies seen on fewer frames than this get conservative defaults.
     min_frames: int = 2
+    # Wall-clock seconds for the joint refinement of the whole scene. When it
+    # runs out, the stage being fitted keeps its best vector so far, the
+    # remaining stages are skipped, and the report says so (budget_exhausted).
+    time_budget_seconds: float = 8.0
     # simulate(world, edits, horizon_frames) -> Rollout; None: the
     # event-driven engine (a fixed-step baseline plugs in here).
     simulator: Callable[..., object] | None = None
@@ -78,6 +82,8 @@ class FitReport:
     function_evaluations: int
     seconds: float
     rmse: float  # metres, over every observed sample of every object
+    budget_exhausted: bool = False  # the joint refinement stopped at FitConfig.time_budget_seconds
+    skipped_stages: int = 0  # stages cut short or skipped because the budget ran out
 
     def to_dict(self) -> dict[str, object]:
         return {
@@ -98,6 +104,8 @@ class FitReport:
             "function_evaluations": self.function_evaluations,
             "seconds": self.seconds,
             "rmse": self.rmse,
+            "budget_exhausted": self.budget_exhausted,
+            "skipped_stages": self.skipped_stages,
         }
 
 
@@ -467,14 +475,20 @@ def _refine_component(
     horizons: Sequence[int],
     observations: Observations,
     config: FitConfig,
-) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float], int]:
+    deadline: float = math.inf,
+) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float], int, int]:
     """Cumulative-prefix least squares over one component.
+
+    deadline: ``time.perf_counter()`` value by which the component must be
+    done. Prefix stages get PREFIX_BUDGET_SHARE of the time left (skipped
+    once it is spent), the whole-video stage the rest; a stage that runs out
+    keeps its best vector so far. Returns the updated estimates, pair
+    restitutions, rollout count and the number of stages cut short or skipped.
 
     A stage fitting frames < H frees only what those frames can inform:
     bodies seen before H, masses and restitutions of collisions before H.
     Everything else keeps its current value (a parameter without data
     would otherwise drift in the optimiser's null space).
-    Returns the updated estimates, pair restitutions and rollout count.
     """
     tracks = [estimates[b].track for b in packing.bodies]
     low, high = packing.bounds()
@@ -483,8 +497,16 @@ def _refine_component(
     first_seen = {t.id: int(t.frames[t.observed][0]) for t in tracks}
     owners = packing.owners()
     evaluations = 0
+    skipped = 0
+    started = time.perf_counter()
+    prefix_deadline = started + PREFIX_BUDGET_SHARE * max(deadline - started, 0.0)
 
-    for horizon in horizons:
+    for stage, horizon in enumerate(horizons):
+        last_stage = stage == len(horizons) - 1
+        stage_deadline = deadline if last_stage else prefix_deadline
+        if time.perf_counter() > stage_deadline:
+            skipped += 1
+            continue
         seen_pairs = {p for p, frame in pair_frames.items() if frame < horizon}
         free = np.array(
             [
@@ -497,24 +519,43 @@ def _refine_component(
         if not free.any():
             continue
         fixed = vector.copy()
+        best: list = [math.inf, vector[free].copy()]  # cost, sub-vector: kept when the deadline interrupts
 
-        def fn(sub: np.ndarray, horizon: int = horizon, fixed: np.ndarray = fixed) -> np.ndarray:
+        def fn(sub: np.ndarray, horizon: int = horizon, fixed: np.ndarray = fixed, best: list = best,
+               stage_deadline: float = stage_deadline) -> np.ndarray:
             nonlocal evaluations
+            if time.perf_counter() > stage_deadline:
+                raise _BudgetExhausted
             evaluations += 1
             full = fixed.copy()
             full[free] = sub
             body_estimates, pairs = packing.unpack(full, estimates)
             world = _world([body_estimates[b] for b in packing.bodies], pairs, observations, config)
-            return _residuals(world, tracks, horizon, config.simulator)
+            residuals = _residuals(world, tracks, horizon, config.simulator)
+            cost = float(residuals @ residuals)
+            if cost < best[0]:
+                best[0], best[1] = cost, sub.copy()
+            return residuals
 
-        result = least_squares(
-            fn, vector[free], bounds=(low[free], high[free]), x_scale=scale[free],
-            max_nfev=config.max_nfev_per_stage, method="trf",
-            ftol=config.tolerance, xtol=config.tolerance, gtol=config.tolerance,
-        )
-        vector[free] = result.x
+        try:
+            result = least_squares(
+                fn, vector[free], bounds=(low[free], high[free]), x_scale=scale[free],
+                max_nfev=config.max_nfev_per_stage, method="trf",
+                ftol=config.tolerance, xtol=config.tolerance, gtol=config.tolerance,
+            )
+            vector[free] = result.x
+        except _BudgetExhausted:
+            vector[free] = best[1]
+            skipped += 1
     updated, pairs = packing.unpack(vector, estimates)
-    return updated, pairs, evaluations
+    return updated, pairs, evaluations, skipped
+
+
+PREFIX_BUDGET_SHARE = 0.6  # of a component's time budget for the prefix stages; the rest for the whole video
+
+
+class _BudgetExhausted(Exception):
+    """Raised inside the objective when FitConfig.time_budget_seconds has run out."""
 
 
 # --------------------------------------------------------------------------
@@ -659,11 +700,17 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
 
     evaluations = 0
     stages = 0
+    skipped_stages = 0
+    deadline = time.perf_counter() + config.time_budget_seconds
     if config.joint:
+        joint_components = [c for c in components if any(k.bodies[0] in c for k in candidates)]
         for component in components:
             pairs = tuple(sorted({c.bodies for c in candidates if c.bodies[0] in component}))
             if not pairs:
                 continue  # a lone body's local fit is already its exact closed form
+            # Components left share the time left equally.
+            left = len(joint_components) - joint_components.index(component)
+            component_deadline = time.perf_counter() + max(deadline - time.perf_counter(), 0.0) / left
             for pair in pairs:
                 pair_e.setdefault(pair, default_e)
             frames = sorted({c.frame for c in candidates if c.bodies[0] in component})
@@ -672,9 +719,10 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
             pair_frames = {}
             for c in candidates:
                 pair_frames.setdefault(c.bodies, c.frame)
-            updated, fitted_e, used = _refine_component(
-                packing, estimates, pair_e, pair_frames, horizons, observations, config
+            updated, fitted_e, used, skipped = _refine_component(
+                packing, estimates, pair_e, pair_frames, horizons, observations, config, component_deadline
             )
+            skipped_stages += skipped
             estimates.update(updated)
             pair_e.update(fitted_e)
             for body in {b for pair in pairs for b in pair}:
@@ -716,6 +764,8 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
         function_evaluations=evaluations,
         seconds=time.perf_counter() - began,
         rmse=float(np.sqrt(np.mean(np.concatenate(squared_errors)))) if squared_errors else 0.0,
+        budget_exhausted=skipped_stages > 0,
+        skipped_stages=skipped_stages,
     )
     anchor = _anchor(world, track_fits, observations, config) if usable else None
     provenance = {"fit": report.to_dict(), "source": dict(observations.source)}

@@ -318,14 +318,17 @@ class VideoExecutor:
     def _answer_each_occurrence(self, question, question_type, program, choices, scene, targets, groundings, shared_calls,
                                 facts, method, started) -> Answer:
         """The explained event occurs several times in the world (the question names it as one): answer
-        for each occurrence's causes; an option is decided only when every occurrence gives the same verdict."""
+        for each occurrence's causes. Where the occurrences disagree, the first one decides: the video
+        shows one such event, and a fitted replay's extra touches of a pair come after the real one
+        (a pair that meets again later); the disagreement is stated in the option's facts."""
         per_target = []
         for target in targets:
             causes = causal_ancestors(scene, target)
             reference = tuple(e for e in scene.events if e in causes)
             per_target.append((target, reference))
             facts.append(f"causes of the {describe_event(target)}: " + (", ".join(describe_event(e) for e in reference) or "none"))
-        facts.insert(0, f"the explained event occurs {len(targets)} times in the world; an option is decided when all occurrences agree")
+        facts.insert(0, f"the explained event occurs {len(targets)} times in the world; where the occurrences disagree "
+                        f"on an option, the first ({describe_event(targets[0])}) decides")
         answers, all_groundings = [], list(groundings)
         for k, (text, choice_program, parse_error) in enumerate(choices):
             options = [self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
@@ -335,8 +338,11 @@ class VideoExecutor:
                 merged = options[0].facts + tuple(f for o in options[1:] for f in o.facts if f not in options[0].facts)
                 answers.append(ChoiceAnswer(k, text, options[0].program, options[0].verdict, facts=merged, error=options[0].error))
             else:
-                answers.append(ChoiceAnswer(k, text, options[0].program, None, facts=tuple(f for o in options for f in o.facts),
-                                            error="the occurrences of the explained event disagree on this option"))
+                first = options[0]
+                note = ("uncertain: the occurrences disagree on this option ("
+                        + ", ".join(f"{describe_event(t)}: {o.verdict}" for (t, _), o in zip(per_target, options))
+                        + "); decided by the first occurrence")
+                answers.append(ChoiceAnswer(k, text, first.program, first.verdict, facts=(note, *first.facts), error=first.error))
         distinct = tuple({(g.reference, g.object_ids): g for g in all_groundings}.values())
         return Answer(question, question_type, program, tuple(answers), method=method, groundings=distinct, facts=tuple(facts),
                       tool_calls=tuple(sorted(set(shared_calls))), seconds=time.perf_counter() - started)

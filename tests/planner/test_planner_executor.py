@@ -222,7 +222,7 @@ def _scripted_world(events: list[dict], objects: list[tuple[int, str, str, str]]
     return client.world("w-mock")
 
 
-def test_an_explained_event_occurring_twice_is_decided_only_where_both_agree():
+def test_an_explained_event_occurring_twice_is_decided_by_its_first_occurrence():
     events = [_record("collision", (0, 1), 10), _record("collision", (1, 2), 30), _record("collision", (0, 1), 50),
               _record("in", (3,), 60)]
     world = _scripted_world(events, [(0, "red", "metal", "cube"), (1, "blue", "rubber", "cube"), (2, "green", "metal", "sphere"),
@@ -231,8 +231,10 @@ def test_an_explained_event_occurring_twice_is_decided_only_where_both_agree():
         "Which of the following is responsible for the collision between the red object and the blue object?",
         ["the presence of the green object", "the presence of the gray object", "the collision between the blue object and the green object"])
     # First occurrence (frame 10) has no causes; the second (frame 50) is caused by c01@10 and c12@30.
-    assert answer.verdicts == [None, "wrong", None]
-    assert "disagree" in answer.choices[0].error
+    # Every option gets a verdict: the first occurrence decides, the disagreement is stated.
+    assert answer.verdicts == ["wrong", "wrong", "wrong"]
+    assert "disagree" in answer.choices[0].facts[0] and "uncertain" in answer.choices[0].facts[0]
+    assert not any("disagree" in f for f in answer.choices[1].facts)  # both occurrences agree on the gray object
     assert "occurs 2 times" in answer.facts[0]
 
 

@@ -40,6 +40,8 @@ from planner.client import ToolCallError, WorldHandle
 from planner.grammar import ParseError
 from planner.grounding import Grounding, WorldObject, failed, ground_program, objects_from_summary
 from planner.parser import parse_choice, parse_question
+from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
+
 from planner.program import EventRecord, ObjectRecord, ProgramError, ProgramScene, causal_ancestors, execute
 
 Mode = Literal["execute", "trajectory_only"]
@@ -85,16 +87,16 @@ def _event_from_record(record: Mapping[str, Any]) -> EventRecord | None:
 
 
 # CLEVRER's collision definition: one touch is one collision; a pair collides
-# anew only after 0.2 s without contact (docs/formats.md). The engine may emit
-# several contact events for one touch (multi-body clusters), so they are merged.
-COLLISION_DEBOUNCE_SECONDS = 0.2
+# anew only after CONTACT_EPISODE_GAP_SECONDS without contact (docs/formats.md). The
+# engine may emit several contact events for one touch (multi-body clusters), so they are merged.
+COLLISION_DEBOUNCE_SECONDS = CONTACT_EPISODE_GAP_SECONDS
 
 
 def clevrer_events(records: Iterable[Mapping[str, Any]], fps: float) -> list[EventRecord]:
     """Tool event records -> interpreter events: stop events dropped, exact
     duplicates removed, a pair's collisions within the debounce window merged
     into the first one."""
-    window = int(round(COLLISION_DEBOUNCE_SECONDS * fps))
+    window = frames_in(COLLISION_DEBOUNCE_SECONDS, fps)
     events = sorted((e for e in (_event_from_record(r) for r in records) if e is not None), key=lambda e: (e.frame, e.kind, e.objects))
     kept: list[EventRecord] = []
     last_contact: dict[tuple[int, ...], int] = {}

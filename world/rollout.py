@@ -37,6 +37,7 @@ from typing import Sequence
 
 import numpy as np
 
+from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of  # noqa: F401 - frame_of re-exported
 from world.camera import footprint_visible, view_events
 from world.contacts import CIRCLE, SQUARE, Footprint, PlanarMotion, closing, footprint_distance, predict_contact
 from world.edits import apply_edits
@@ -51,7 +52,7 @@ INITIAL_OVERLAP_TOL = 1e-6  # m: bodies entering together may overlap at most th
 HORIZON_FACTOR = 1.2
 # Collisions of one pair closer than this (s) are one contact episode, as the
 # scene generator's ground truth counts them (synth: 0.2 s debounce).
-CONTACT_EPISODE_GAP = 0.2
+CONTACT_EPISODE_GAP = CONTACT_EPISODE_GAP_SECONDS
 CLUSTER_GAP = 1e-6  # m: bodies this close belong to the same jammed cluster when settling
 
 
@@ -67,11 +68,6 @@ def footprint_of(body: Body) -> Footprint:
 def pair_restitution(world: World) -> dict[tuple[int, int], float]:
     """Pair table {(id_a, id_b) sorted: e} from the world's overrides."""
     return {(min(a, b), max(a, b)): float(e) for a, b, e in world.pair_restitution}
-
-
-def frame_of(time: float, fps: float) -> int:
-    """Frame index of a time (s): round half up of ``time * fps``."""
-    return int(math.floor(time * fps + 0.5))
 
 
 def _validate_initial_overlaps(world: World) -> None:

@@ -19,12 +19,17 @@ it (``bench.metrics.score_world``):
   saw: holding the last observed position, and constant velocity (least
   squares over the last VELOCITY_WINDOW visible frames).
 
+``--worlds DIR`` scores the noiseless analytic worlds already fitted by
+``bench/bench_qa.py --cache`` (``DIR/world_XXXXX.json``, same identification
+code, same oracle tracks) instead of fitting them again; their fit time is
+the one recorded in the world's fit report.
+
 ``--baseline`` also fits with the fixed-step integrator of the same model
 (``bench.fixed_step``, dt = 1/100 s) and the same optimiser, in the same run.
 
 Usage:
     python -m bench.bench_identify DATASET_DIR [--scenes N] [--noise 0,0.01,0.03]
-        [--baseline] [--workers 2]
+        [--baseline] [--workers 2] [--worlds CACHE/annotation]
 """
 
 from __future__ import annotations
@@ -41,6 +46,7 @@ import numpy as np
 from bench.metrics import GroundTruth, PrecisionRecall, match_events, rollout_collisions, score_world
 from world.identify.fit import FitConfig, identify
 from world.identify.observations import Observations
+from world.io import world_from_dict
 from world.rollout import simulate
 
 OBJECT_SIZE = 0.4  # m, side / diameter of the generator's objects: noise is a share of it
@@ -117,26 +123,42 @@ def _simulator(method: str):
     return stepper, stepper
 
 
-def evaluate(task: tuple[Path, float, str]) -> dict:
+def evaluate(task: tuple[Path, float, str, Path | None]) -> dict:
     """Fit and score one (scene, noise, method); a failure is a row too, never a crash."""
-    annotation, noise, method = task
+    annotation, noise, method, worlds = task
     try:
-        return _evaluate(annotation, noise, method)
+        return _evaluate(annotation, noise, method, worlds)
     except Exception as error:  # noqa: BLE001 - the table reports failures
         index = int(annotation.stem.split("_")[-1])
         return {"scene": index, "noise": noise, "method": method, "error": f"{type(error).__name__}: {error}"}
 
 
-def _evaluate(annotation: Path, noise: float, method: str) -> dict:
+def _cached_world(worlds: Path | None, index: str, noise: float, method: str):
+    """(world, fit seconds, rollouts) of a world bench_qa already fitted, or None."""
+    if worlds is None or noise != 0 or method != "analytic":
+        return None
+    path = worlds / f"world_{index}.json"
+    if not path.is_file():
+        return None
+    world = world_from_dict(json.loads(path.read_text()))
+    fit = world.provenance["fit"]
+    return world, float(fit["seconds"]), int(fit["function_evaluations"])
+
+
+def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None = None) -> dict:
     """Fit and score one (scene, noise, method); returns plain numbers."""
     index = annotation.stem.split("_")[-1]
     truth = GroundTruth.load(annotation.parent.parent / "ground_truth" / f"scene_{index}.json")
     clean = Observations.from_clevrer_annotation(annotation, camera=truth.camera)
     observations = _noisy(clean, noise * OBJECT_SIZE, seed=int(index))
     fit_simulator, score_simulator = _simulator(method)
-    began = time.perf_counter()
-    world, report = identify(observations, FitConfig(simulator=fit_simulator))
-    seconds = time.perf_counter() - began
+    cached = _cached_world(worlds, index, noise, method)
+    if cached is None:
+        began = time.perf_counter()
+        world, report = identify(observations, FitConfig(simulator=fit_simulator))
+        seconds, evaluations = time.perf_counter() - began, report.function_evaluations
+    else:
+        world, seconds, evaluations = cached
     visible = np.stack([t.visible for t in clean.objects], axis=1)
     # Each method executes its own fitted world, as its user would.
     score = score_world(world, truth, score_simulator, visible)
@@ -158,7 +180,7 @@ def _evaluate(annotation: Path, noise: float, method: str) -> dict:
         "counterfactual_f1": [c.f1 for c in score.counterfactual],
         "counterfactual": [_counts(c) for c in score.counterfactual],
         "seconds": seconds,
-        "evaluations": report.function_evaluations,
+        "evaluations": evaluations,
     }
 
 
@@ -240,16 +262,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--baseline-scenes", type=int, default=None, help="limit the baseline to the first N scenes")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--json", type=Path, help="write every per-scene row here")
+    parser.add_argument("--worlds", type=Path, default=None,
+                        help="score the noiseless worlds bench_qa --cache fitted (CACHE/annotation) instead of refitting them")
     args = parser.parse_args(argv)
 
     annotations = sorted((args.dataset / "annotations").glob("annotation_*.json"))[: args.scenes]
     if not annotations:
         raise SystemExit(f"no annotations under {args.dataset / 'annotations'}")
     noises = [float(v) for v in args.noise.split(",")]
-    tasks = [(a, noise, "analytic") for noise in noises for a in annotations]
+    tasks = [(a, noise, "analytic", args.worlds) for noise in noises for a in annotations]
     if args.baseline:
         for a in annotations[: args.baseline_scenes]:
-            tasks += [(a, noise, "fixed-1/100") for noise in noises]
+            tasks += [(a, noise, "fixed-1/100", None) for noise in noises]
     rows = []
     began = time.perf_counter()
     with multiprocessing.get_context("spawn").Pool(args.workers) as pool:

@@ -372,69 +372,52 @@ class VideoExecutor:
                        reference: tuple[EventRecord, ...] | None, removed: int | None, all_groundings: list[Grounding],
                        membership_only: bool = False) -> ChoiceAnswer:
         """One verdict. ``membership_only``: the question program cannot run (its removed object is
-        absent), so the option is tested against ``reference`` directly, as ``belong_to`` does."""
+        absent), so the option is tested against ``reference`` directly, as ``belong_to`` does.
+        The stages: parse -> ground (:func:`_ungrounded_option`) -> run (:meth:`_run_option`, or
+        :func:`_option_from_selection` when the program does not apply) -> facts per value kind
+        (:data:`OPTION_FACTS`) -> corroboration."""
         if choice_program is None:
             return ChoiceAnswer(k, text, None, None, error=parse_error or "choice not parsed")
         choice_program = tuple(choice_program)
         groundings = ground_program(choice_program, self.objects)
         all_groundings.extend(groundings)
-        bad = failed(groundings)
         negated = bool(program) and program[-1] == "negate"
+        bad = failed(groundings)
         if bad:
-            if reference is None or any(g.status == "ambiguous" for g in bad):
-                return ChoiceAnswer(k, text, choice_program, None, error="; ".join(g.message() for g in bad))
-            # The option names an object the world does not contain (never observed): it takes part in no event.
-            facts = [f"{g.message()}: an object the world does not contain takes part in none of its events" for g in bad]
-            if negated:
-                facts.append("the question is negated: the option is correct when the event/object is NOT listed")
-            return ChoiceAnswer(k, text, choice_program, "correct" if negated else "wrong", facts=tuple(facts))
+            return _ungrounded_option(k, text, choice_program, bad, reference, negated)
         try:
-            value = execute(list(choice_program), scene)
-            if membership_only:
-                if reference is None or not isinstance(value, (ObjectRecord, EventRecord)):
-                    raise ProgramError("the option is neither an object nor an event")
-                listed = (any(value.id in e.objects for e in reference) if isinstance(value, ObjectRecord)
-                          else any(_same_event(value, e) for e in reference))
-                result = "yes" if listed != negated else "no"
-            else:
-                result = execute(list(choice_program) + list(program), scene)
+            value, result = self._run_option(choice_program, program, scene, reference, negated, membership_only)
         except ProgramError as error:
-            candidates = _event_selection(choice_program, scene)
-            if candidates is None or reference is None:
-                return ChoiceAnswer(k, text, choice_program, None, error=f"program does not apply: {error}")
-            if not candidates:
-                # The option names an event the world's rollout does not contain: it cannot be listed.
-                listed = False
-                facts = ["the event the option names does not occur in the world's rollout, so it is not among the listed events"]
-            else:
-                # Several touches of the same pair: belong_to compares kind and objects only, so any of them decides.
-                listed = any(_same_event(candidates[0], e) for e in reference)
-                facts = [f"the option's event occurs {len(candidates)} times ({', '.join(describe_event(c) for c in candidates)}); "
-                         f"{'listed' if listed else 'not listed'} (membership ignores frames)"]
-            if negated:
-                facts.append("the question is negated: the option is correct when the event/object is NOT listed")
-            return ChoiceAnswer(k, text, choice_program, "correct" if listed != negated else "wrong", facts=tuple(facts))
+            return _option_from_selection(k, text, choice_program, scene, reference, negated, error)
         if result not in ("yes", "no"):
             return ChoiceAnswer(k, text, choice_program, None, error=f"the program gives {result!r}, not yes/no")
         facts: list[str] = []
         calls: list[int] = []
         if reference is not None:
-            if isinstance(value, ObjectRecord):
-                involved = [e for e in reference if value.id in e.objects]
-                facts.append(f"object {value.id} ({value.color} {value.material} {value.shape}) takes part in "
-                             + (", ".join(describe_event(e) for e in involved) if involved else f"none of the {len(reference)} listed events"))
-            elif isinstance(value, EventRecord):
-                found = [e for e in reference if _same_event(e, value)]
-                facts.append(f"{describe_event(value)}: " + ("found, " + ", ".join(describe_event(e) for e in found) if found
-                                                               else f"not among the {len(reference)} listed events"))
+            describe = OPTION_FACTS.get(type(value))
+            if describe is not None:
+                facts.append(describe(value, reference))
             if negated:
-                facts.append("the question is negated: the option is correct when the event/object is NOT listed")
+                facts.append(NEGATED_FACT)
         if self.config.corroborate and isinstance(value, EventRecord) and value.kind == "collision" and question_type in ("predictive", "counterfactual"):
             note = self._corroborate(value, question_type, removed)
             if note is not None:
                 facts.append(note[0])
                 calls.append(note[1])
         return ChoiceAnswer(k, text, choice_program, "correct" if result == "yes" else "wrong", facts=tuple(facts), tool_calls=tuple(calls))
+
+    @staticmethod
+    def _run_option(choice_program: tuple[str, ...], program: tuple[str, ...], scene: ProgramScene,
+                    reference: tuple[EventRecord, ...] | None, negated: bool, membership_only: bool) -> tuple[Any, Any]:
+        """(the option's value, "yes"/"no" or what the program gave); ProgramError when it does not apply."""
+        value = execute(list(choice_program), scene)
+        if not membership_only:
+            return value, execute(list(choice_program) + list(program), scene)
+        if reference is None or not isinstance(value, (ObjectRecord, EventRecord)):
+            raise ProgramError("the option is neither an object nor an event")
+        listed = (any(value.id in e.objects for e in reference) if isinstance(value, ObjectRecord)
+                  else any(_same_event(value, e) for e in reference))
+        return value, "yes" if listed != negated else "no"
 
     def _corroborate(self, event: EventRecord, question_type: str, removed: int | None) -> tuple[str, int] | None:
         """check_contact on the rollout the verdict came from (evidence, never the verdict)."""
@@ -457,6 +440,58 @@ class VideoExecutor:
         return (f"check_contact({a}, {b}) on rollout {rollout_id!r} frames {frames['frame_start']}..{frames['frame_end']}: "
                 f"{result.get('status')} (first frame {result.get('first_frame')}, nearest {result.get('nearest_distance')} m{change})",
                 self.world.last_call.index)
+
+
+NEGATED_FACT = "the question is negated: the option is correct when the event/object is NOT listed"
+
+
+def _object_facts(value: ObjectRecord, reference: tuple[EventRecord, ...]) -> str:
+    involved = [e for e in reference if value.id in e.objects]
+    return (f"object {value.id} ({value.color} {value.material} {value.shape}) takes part in "
+            + (", ".join(describe_event(e) for e in involved) if involved else f"none of the {len(reference)} listed events"))
+
+
+def _event_facts(value: EventRecord, reference: tuple[EventRecord, ...]) -> str:
+    found = [e for e in reference if _same_event(e, value)]
+    return f"{describe_event(value)}: " + ("found, " + ", ".join(describe_event(e) for e in found) if found
+                                           else f"not among the {len(reference)} listed events")
+
+
+# What an option's value says about the reference list, by the kind of value its program gives.
+OPTION_FACTS: dict[type, Any] = {ObjectRecord: _object_facts, EventRecord: _event_facts}
+
+
+def _ungrounded_option(k: int, text: str, choice_program: tuple[str, ...], bad: Sequence[Grounding],
+                       reference: tuple[EventRecord, ...] | None, negated: bool) -> ChoiceAnswer:
+    """An option whose reference fails: undecided when ambiguous (or nothing to test against); an object
+    the world does not contain (never observed) takes part in no event."""
+    if reference is None or any(g.status == "ambiguous" for g in bad):
+        return ChoiceAnswer(k, text, choice_program, None, error="; ".join(g.message() for g in bad))
+    facts = [f"{g.message()}: an object the world does not contain takes part in none of its events" for g in bad]
+    if negated:
+        facts.append(NEGATED_FACT)
+    return ChoiceAnswer(k, text, choice_program, "correct" if negated else "wrong", facts=tuple(facts))
+
+
+def _option_from_selection(k: int, text: str, choice_program: tuple[str, ...], scene: ProgramScene,
+                           reference: tuple[EventRecord, ...] | None, negated: bool, error: ProgramError) -> ChoiceAnswer:
+    """An event option whose program does not apply (its event is absent, or occurs several times):
+    decided by membership of the events it selects."""
+    candidates = _event_selection(choice_program, scene)
+    if candidates is None or reference is None:
+        return ChoiceAnswer(k, text, choice_program, None, error=f"program does not apply: {error}")
+    if not candidates:
+        # The option names an event the world's rollout does not contain: it cannot be listed.
+        listed = False
+        facts = ["the event the option names does not occur in the world's rollout, so it is not among the listed events"]
+    else:
+        # Several touches of the same pair: belong_to compares kind and objects only, so any of them decides.
+        listed = any(_same_event(candidates[0], e) for e in reference)
+        facts = [f"the option's event occurs {len(candidates)} times ({', '.join(describe_event(c) for c in candidates)}); "
+                 f"{'listed' if listed else 'not listed'} (membership ignores frames)"]
+    if negated:
+        facts.append(NEGATED_FACT)
+    return ChoiceAnswer(k, text, choice_program, "correct" if listed != negated else "wrong", facts=tuple(facts))
 
 
 def _event_selection(choice_program: tuple[str, ...], scene: ProgramScene) -> tuple[EventRecord, ...] | None:

@@ -57,7 +57,7 @@ class FitConfig:
     # Wall-clock seconds for the joint refinement of the whole scene. When it
     # runs out, the stage being fitted keeps its best vector so far, the
     # remaining stages are skipped, and the report says so (budget_exhausted).
-    time_budget_seconds: float = 8.0
+    time_budget_seconds: float = 30.0
     # simulate(world, edits, horizon_frames) -> Rollout; None: the
     # event-driven engine (a fixed-step baseline plugs in here).
     simulator: Callable[..., object] | None = None

@@ -21,7 +21,7 @@ ground truth from MuJoCo), so semantics cannot drift. Where a program cannot
 run on the world, the executor says why and decides only what follows without
 a guess: an object the world lacks (never in view) takes part in no event;
 an option's event the rollout lacks is not listed; an explained event that
-occurs several times decides an option only when all occurrences agree;
+occurs several times is decided by its first occurrence where the occurrences disagree (stated as uncertain);
 ambiguous references stay undecided (docs/planner.md). The
 ``trajectory_only`` mode is the ablation of the paper's Figure 4: no
 intervention is executed and a counterfactual is answered from the factual

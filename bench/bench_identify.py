@@ -10,14 +10,26 @@ it (``bench.metrics.score_world``):
   tolerance), over all objects and over objects seen in the video;
 * counterfactual: per removable object, F1 of the collision SET of our
   replay vs MuJoCo's re-simulation (mean over removals);
-* wall time of the fit per scene.
+* wall time of the fit per scene;
+* after the video (only when the dataset has ``future/`` from
+  ``bench.oracle_dataset``): for objects seen in the video and still moving
+  at its last frame (MuJoCo speed > STILL_MOVING_SPEED), the planar error at
+  +1/+2/+3 s of the fitted world's factual continuation (median, p90, share
+  within 10 cm), and in the same run of two baselines from the tracks the fit
+  saw: holding the last observed position, and constant velocity (least
+  squares over the last VELOCITY_WINDOW visible frames).
+
+``--worlds DIR`` scores the noiseless analytic worlds already fitted by
+``bench/bench_qa.py --cache`` (``DIR/world_XXXXX.json``, same identification
+code, same oracle tracks) instead of fitting them again; their fit time is
+the one recorded in the world's fit report.
 
 ``--baseline`` also fits with the fixed-step integrator of the same model
 (``bench.fixed_step``, dt = 1/100 s) and the same optimiser, in the same run.
 
 Usage:
     python -m bench.bench_identify DATASET_DIR [--scenes N] [--noise 0,0.01,0.03]
-        [--baseline] [--workers 2]
+        [--baseline] [--workers 2] [--worlds CACHE/annotation]
 """
 
 from __future__ import annotations
@@ -34,10 +46,58 @@ import numpy as np
 from bench.fixed_step import simulate_fixed_step
 from bench.metrics import GroundTruth, PrecisionRecall, match_events, rollout_collisions, score_world
 from world.identify.fit import FitConfig, identify
+from world.io import world_from_dict
 from world.observations import Observations
 from world.rollout import simulate
 
 OBJECT_SIZE = 0.4  # m, side / diameter of the generator's objects: noise is a share of it
+AHEAD_SECONDS = (1.0, 2.0, 3.0)  # s after the last observed frame
+STILL_MOVING_SPEED = 0.02  # m/s: MuJoCo speed at the last observed frame above which an object "still moves"
+VELOCITY_WINDOW = 5  # frames: the constant-velocity baseline's least-squares window
+NEAR_METRES = 0.10  # "within 10 cm"
+PREDICTORS = ("world", "hold", "const-vel")
+
+
+def _future_truth(annotation: Path, index: str) -> dict | None:
+    path = annotation.parent.parent / "future" / f"scene_{index}.json"
+    return json.loads(path.read_text()) if path.exists() else None
+
+
+def _ahead_errors(world, observations: Observations, future: dict, score_simulator) -> dict[str, list[list[float]]]:
+    """Planar errors (m) per predictor and per AHEAD_SECONDS of the objects still moving after the video."""
+    fps, observed = float(future["fps"]), int(future["observed_frames"])
+    truth = np.asarray(future["positions"], dtype=float)  # (T, N, 3)
+    last = observed - 1
+    steps = [int(round(a * fps)) for a in AHEAD_SECONDS]
+    rollout = score_simulator(world, (), min(truth.shape[0], last + max(steps) + 1))
+    column = {body: k for k, body in enumerate(rollout.body_ids)}
+    tracks = {t.id: t for t in observations.objects}
+    errors: dict[str, list[list[float]]] = {p: [[] for _ in steps] for p in PREDICTORS}
+    for k, object_id in enumerate(future["object_ids"]):
+        track = tracks.get(object_id)
+        speed = np.linalg.norm(truth[last, k, :2] - truth[last - 1, k, :2]) * fps
+        if track is None or speed <= STILL_MOVING_SPEED:
+            continue
+        seen = np.flatnonzero(track.visible[:observed])
+        if seen.size < 2:
+            continue
+        window = seen[-VELOCITY_WINDOW:]
+        times = (window - last) / fps
+        velocity = np.polyfit(times, track.positions[window, :2], 1)[0] if window.size >= 2 else np.zeros(2)
+        held = track.positions[seen[-1], :2]
+        anchor_time = (seen[-1] - last) / fps
+        for j, step in enumerate(steps):
+            if last + step >= truth.shape[0]:
+                continue
+            actual = truth[last + step, k, :2]
+            predicted = {
+                "world": rollout.positions[last + step, column[object_id], :2] if object_id in column else held,
+                "hold": held,
+                "const-vel": held + velocity * (step / fps - anchor_time),
+            }
+            for name, position in predicted.items():
+                errors[name][j].append(float(np.linalg.norm(position - actual)))
+    return errors
 
 
 def _noisy(observations: Observations, sigma: float, seed: int) -> Observations:
@@ -63,26 +123,42 @@ def _simulator(method: str):
     return stepper, stepper
 
 
-def evaluate(task: tuple[Path, float, str]) -> dict:
+def evaluate(task: tuple[Path, float, str, Path | None]) -> dict:
     """Fit and score one (scene, noise, method); a failure is a row too, never a crash."""
-    annotation, noise, method = task
+    annotation, noise, method, worlds = task
     try:
-        return _evaluate(annotation, noise, method)
+        return _evaluate(annotation, noise, method, worlds)
     except Exception as error:  # noqa: BLE001 - the table reports failures
         index = int(annotation.stem.split("_")[-1])
         return {"scene": index, "noise": noise, "method": method, "error": f"{type(error).__name__}: {error}"}
 
 
-def _evaluate(annotation: Path, noise: float, method: str) -> dict:
+def _cached_world(worlds: Path | None, index: str, noise: float, method: str):
+    """(world, fit seconds, rollouts) of a world bench_qa already fitted, or None."""
+    if worlds is None or noise != 0 or method != "analytic":
+        return None
+    path = worlds / f"world_{index}.json"
+    if not path.is_file():
+        return None
+    world = world_from_dict(json.loads(path.read_text()))
+    fit = world.provenance["fit"]
+    return world, float(fit["seconds"]), int(fit["function_evaluations"])
+
+
+def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None = None) -> dict:
     """Fit and score one (scene, noise, method); returns plain numbers."""
     index = annotation.stem.split("_")[-1]
     truth = GroundTruth.load(annotation.parent.parent / "ground_truth" / f"scene_{index}.json")
     clean = Observations.from_clevrer_annotation(annotation, camera=truth.camera)
     observations = _noisy(clean, noise * OBJECT_SIZE, seed=int(index))
     fit_simulator, score_simulator = _simulator(method)
-    began = time.perf_counter()
-    world, report = identify(observations, FitConfig(simulator=fit_simulator))
-    seconds = time.perf_counter() - began
+    cached = _cached_world(worlds, index, noise, method)
+    if cached is None:
+        began = time.perf_counter()
+        world, report = identify(observations, FitConfig(simulator=fit_simulator))
+        seconds, evaluations = time.perf_counter() - began, report.function_evaluations
+    else:
+        world, seconds, evaluations = cached
     visible = np.stack([t.visible for t in clean.objects], axis=1)
     # Each method executes its own fitted world, as its user would.
     score = score_world(world, truth, score_simulator, visible)
@@ -90,7 +166,10 @@ def _evaluate(annotation: Path, noise: float, method: str) -> dict:
     base = score_simulator(world, (), truth.horizon_frames)
     future_seen = [c for c in truth.collisions if c[1] >= truth.observed_frames and set(c[0]) <= seen]
     predictive_seen = match_events(rollout_collisions(base, truth.observed_frames), future_seen)
+    future = _future_truth(annotation, index)
+    ahead = None if future is None else _ahead_errors(world, observations, future, score_simulator)
     return {
+        "ahead": ahead,
         "scene": int(index),
         "noise": noise,
         "method": method,
@@ -101,7 +180,7 @@ def _evaluate(annotation: Path, noise: float, method: str) -> dict:
         "counterfactual_f1": [c.f1 for c in score.counterfactual],
         "counterfactual": [_counts(c) for c in score.counterfactual],
         "seconds": seconds,
-        "evaluations": report.function_evaluations,
+        "evaluations": evaluations,
     }
 
 
@@ -142,10 +221,35 @@ def summarise(rows: list[dict]) -> list[str]:
             f"{predictive.precision:>6.3f} {predictive.recall:>5.3f} {predictive.f1:>5.3f} | {seen.f1:>7.3f} | "
             f"{np.mean(cf):>5.3f} {cf_micro.f1:>5.3f} | {observed.f1:>6.3f} | {np.median(seconds):>9.2f} {np.percentile(seconds, 95):>6.2f}"
         )
+    lines += _ahead_table(rows)
     failures = [r for r in rows if "error" in r]
     if failures:
         lines.append(f"failed fits ('F' above): {len(failures)}")
         lines += [f"  scene {r['scene']} noise {r['noise']} {r['method']}: {r['error']}" for r in failures[:10]]
+    return lines
+
+
+def _ahead_table(rows: list[dict]) -> list[str]:
+    """Planar error after the video per predictor: median / p90 (cm) and share within 10 cm, per horizon."""
+    groups: dict[tuple[str, float], list[dict]] = {}
+    for row in rows:
+        if row.get("ahead"):
+            groups.setdefault((row["method"], row["noise"]), []).append(row)
+    if not groups:
+        return []
+    cells = " | ".join(f"+{a:.0f} s med  p90  <10cm" for a in AHEAD_SECONDS)
+    lines = ["", "objects still moving after the video: planar error (cm)",
+             f"{'method':<11} {'noise':>5} {'predictor':<9} {'objects':>7} | {cells}"]
+    for (method, noise), group in sorted(groups.items()):
+        for predictor in PREDICTORS:
+            parts = []
+            count = 0
+            for j in range(len(AHEAD_SECONDS)):
+                values = np.array([e for r in group for e in r["ahead"][predictor][j]]) * 100
+                count = max(count, values.size)
+                parts.append("       n/a        " if values.size == 0 else
+                             f"{np.median(values):>8.1f} {np.percentile(values, 90):>5.1f} {np.mean(values <= NEAR_METRES * 100) * 100:>4.0f}%")
+            lines.append(f"{method:<11} {noise * 100:>4.0f}% {predictor:<9} {count:>7} | " + " | ".join(parts))
     return lines
 
 
@@ -158,16 +262,18 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--baseline-scenes", type=int, default=None, help="limit the baseline to the first N scenes")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--json", type=Path, help="write every per-scene row here")
+    parser.add_argument("--worlds", type=Path, default=None,
+                        help="score the noiseless worlds bench_qa --cache fitted (CACHE/annotation) instead of refitting them")
     args = parser.parse_args(argv)
 
     annotations = sorted((args.dataset / "annotations").glob("annotation_*.json"))[: args.scenes]
     if not annotations:
         raise SystemExit(f"no annotations under {args.dataset / 'annotations'}")
     noises = [float(v) for v in args.noise.split(",")]
-    tasks = [(a, noise, "analytic") for noise in noises for a in annotations]
+    tasks = [(a, noise, "analytic", args.worlds) for noise in noises for a in annotations]
     if args.baseline:
         for a in annotations[: args.baseline_scenes]:
-            tasks += [(a, noise, "fixed-1/100") for noise in noises]
+            tasks += [(a, noise, "fixed-1/100", None) for noise in noises]
     rows = []
     began = time.perf_counter()
     with multiprocessing.get_context("spawn").Pool(args.workers) as pool:

@@ -8,10 +8,9 @@ fetches, lazily and once per video, everything the CLEVRER programs need:
 * ``list_events`` on the base rollout: the observed events (frame <
   observed_frames), from which the causal traces are built;
 * the continuation beyond the observed frames for ``unseen_events``: the base
-  rollout when it reaches the prediction horizon, else one longer replay of
-  the same world (``simulate_edit`` with a parameter set to the value it
-  already has and ``horizon_frames``; the tool has no edit-free horizon
-  argument);
+  rollout when it reaches the prediction horizon, else ``continue_world``
+  (the unedited world to the longer horizon, restarted from the fitted
+  end-of-video state; never an edited, un-anchored replay);
 * ``counterfact_events(obj)``: ``simulate_edit(remove_object, obj)``, one
   edited rollout per removed object, reused by every question of the video,
   with ``compare_rollouts`` for the pairs the removal adds or removes and
@@ -22,7 +21,7 @@ ground truth from MuJoCo), so semantics cannot drift. Where a program cannot
 run on the world, the executor says why and decides only what follows without
 a guess: an object the world lacks (never in view) takes part in no event;
 an option's event the rollout lacks is not listed; an explained event that
-occurs several times decides an option only when all occurrences agree;
+occurs several times is decided by its first occurrence where the occurrences disagree (stated as uncertain);
 ambiguous references stay undecided (docs/planner.md). The
 ``trajectory_only`` mode is the ablation of the paper's Figure 4: no
 intervention is executed and a counterfactual is answered from the factual
@@ -41,6 +40,8 @@ from planner.client import ToolCallError, WorldHandle
 from planner.grammar import ParseError
 from planner.grounding import Grounding, WorldObject, failed, ground_program, objects_from_summary
 from planner.parser import parse_choice, parse_question
+from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
+
 from planner.program import EventRecord, ObjectRecord, ProgramError, ProgramScene, causal_ancestors, execute
 
 Mode = Literal["execute", "trajectory_only"]
@@ -86,16 +87,16 @@ def _event_from_record(record: Mapping[str, Any]) -> EventRecord | None:
 
 
 # CLEVRER's collision definition: one touch is one collision; a pair collides
-# anew only after 0.2 s without contact (docs/formats.md). The engine may emit
-# several contact events for one touch (multi-body clusters), so they are merged.
-COLLISION_DEBOUNCE_SECONDS = 0.2
+# anew only after CONTACT_EPISODE_GAP_SECONDS without contact (docs/formats.md). The
+# engine may emit several contact events for one touch (multi-body clusters), so they are merged.
+COLLISION_DEBOUNCE_SECONDS = CONTACT_EPISODE_GAP_SECONDS
 
 
 def clevrer_events(records: Iterable[Mapping[str, Any]], fps: float) -> list[EventRecord]:
     """Tool event records -> interpreter events: stop events dropped, exact
     duplicates removed, a pair's collisions within the debounce window merged
     into the first one."""
-    window = int(round(COLLISION_DEBOUNCE_SECONDS * fps))
+    window = frames_in(COLLISION_DEBOUNCE_SECONDS, fps)
     events = sorted((e for e in (_event_from_record(r) for r in records) if e is not None), key=lambda e: (e.frame, e.kind, e.objects))
     kept: list[EventRecord] = []
     last_contact: dict[tuple[int, ...], int] = {}
@@ -185,10 +186,8 @@ class VideoExecutor:
                 events = [e for e in base if e.frame is not None and self.observed_frames <= e.frame < horizon]
                 self._continuation = (events, "base", self._base_call, self._base_horizon)  # type: ignore[arg-type]
             else:
-                # Same world, longer replay: an edit that sets a friction to the value it already has.
-                body = self.summary["objects"][0]
-                result = self.world.call("simulate_edit", edit_type="set_friction", object_id=body["object_id"],
-                                         value=body["friction"], horizon_frames=horizon, trajectory_detail="summary")
+                # The factual world continued without an edit: it restarts from the fitted end-of-video state.
+                result = self.world.call("continue_world", horizon_frames=horizon)
                 call = self.world.last_call.index
                 records = list(result["collisions"]) + list(result["in_out_events"])
                 events = [e for e in clevrer_events(records, float(self.summary["fps"])) if e.frame >= self.observed_frames]
@@ -321,14 +320,17 @@ class VideoExecutor:
     def _answer_each_occurrence(self, question, question_type, program, choices, scene, targets, groundings, shared_calls,
                                 facts, method, started) -> Answer:
         """The explained event occurs several times in the world (the question names it as one): answer
-        for each occurrence's causes; an option is decided only when every occurrence gives the same verdict."""
+        for each occurrence's causes. Where the occurrences disagree, the first one decides: the video
+        shows one such event, and a fitted replay's extra touches of a pair come after the real one
+        (a pair that meets again later); the disagreement is stated in the option's facts."""
         per_target = []
         for target in targets:
             causes = causal_ancestors(scene, target)
             reference = tuple(e for e in scene.events if e in causes)
             per_target.append((target, reference))
             facts.append(f"causes of the {describe_event(target)}: " + (", ".join(describe_event(e) for e in reference) or "none"))
-        facts.insert(0, f"the explained event occurs {len(targets)} times in the world; an option is decided when all occurrences agree")
+        facts.insert(0, f"the explained event occurs {len(targets)} times in the world; where the occurrences disagree "
+                        f"on an option, the first ({describe_event(targets[0])}) decides")
         answers, all_groundings = [], list(groundings)
         for k, (text, choice_program, parse_error) in enumerate(choices):
             options = [self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
@@ -338,8 +340,11 @@ class VideoExecutor:
                 merged = options[0].facts + tuple(f for o in options[1:] for f in o.facts if f not in options[0].facts)
                 answers.append(ChoiceAnswer(k, text, options[0].program, options[0].verdict, facts=merged, error=options[0].error))
             else:
-                answers.append(ChoiceAnswer(k, text, options[0].program, None, facts=tuple(f for o in options for f in o.facts),
-                                            error="the occurrences of the explained event disagree on this option"))
+                first = options[0]
+                note = ("uncertain: the occurrences disagree on this option ("
+                        + ", ".join(f"{describe_event(t)}: {o.verdict}" for (t, _), o in zip(per_target, options))
+                        + "); decided by the first occurrence")
+                answers.append(ChoiceAnswer(k, text, first.program, first.verdict, facts=(note, *first.facts), error=first.error))
         distinct = tuple({(g.reference, g.object_ids): g for g in all_groundings}.values())
         return Answer(question, question_type, program, tuple(answers), method=method, groundings=distinct, facts=tuple(facts),
                       tool_calls=tuple(sorted(set(shared_calls))), seconds=time.perf_counter() - started)
@@ -367,69 +372,52 @@ class VideoExecutor:
                        reference: tuple[EventRecord, ...] | None, removed: int | None, all_groundings: list[Grounding],
                        membership_only: bool = False) -> ChoiceAnswer:
         """One verdict. ``membership_only``: the question program cannot run (its removed object is
-        absent), so the option is tested against ``reference`` directly, as ``belong_to`` does."""
+        absent), so the option is tested against ``reference`` directly, as ``belong_to`` does.
+        The stages: parse -> ground (:func:`_ungrounded_option`) -> run (:meth:`_run_option`, or
+        :func:`_option_from_selection` when the program does not apply) -> facts per value kind
+        (:data:`OPTION_FACTS`) -> corroboration."""
         if choice_program is None:
             return ChoiceAnswer(k, text, None, None, error=parse_error or "choice not parsed")
         choice_program = tuple(choice_program)
         groundings = ground_program(choice_program, self.objects)
         all_groundings.extend(groundings)
-        bad = failed(groundings)
         negated = bool(program) and program[-1] == "negate"
+        bad = failed(groundings)
         if bad:
-            if reference is None or any(g.status == "ambiguous" for g in bad):
-                return ChoiceAnswer(k, text, choice_program, None, error="; ".join(g.message() for g in bad))
-            # The option names an object the world does not contain (never observed): it takes part in no event.
-            facts = [f"{g.message()}: an object the world does not contain takes part in none of its events" for g in bad]
-            if negated:
-                facts.append("the question is negated: the option is correct when the event/object is NOT listed")
-            return ChoiceAnswer(k, text, choice_program, "correct" if negated else "wrong", facts=tuple(facts))
+            return _ungrounded_option(k, text, choice_program, bad, reference, negated)
         try:
-            value = execute(list(choice_program), scene)
-            if membership_only:
-                if reference is None or not isinstance(value, (ObjectRecord, EventRecord)):
-                    raise ProgramError("the option is neither an object nor an event")
-                listed = (any(value.id in e.objects for e in reference) if isinstance(value, ObjectRecord)
-                          else any(_same_event(value, e) for e in reference))
-                result = "yes" if listed != negated else "no"
-            else:
-                result = execute(list(choice_program) + list(program), scene)
+            value, result = self._run_option(choice_program, program, scene, reference, negated, membership_only)
         except ProgramError as error:
-            candidates = _event_selection(choice_program, scene)
-            if candidates is None or reference is None:
-                return ChoiceAnswer(k, text, choice_program, None, error=f"program does not apply: {error}")
-            if not candidates:
-                # The option names an event the world's rollout does not contain: it cannot be listed.
-                listed = False
-                facts = ["the event the option names does not occur in the world's rollout, so it is not among the listed events"]
-            else:
-                # Several touches of the same pair: belong_to compares kind and objects only, so any of them decides.
-                listed = any(_same_event(candidates[0], e) for e in reference)
-                facts = [f"the option's event occurs {len(candidates)} times ({', '.join(describe_event(c) for c in candidates)}); "
-                         f"{'listed' if listed else 'not listed'} (membership ignores frames)"]
-            if negated:
-                facts.append("the question is negated: the option is correct when the event/object is NOT listed")
-            return ChoiceAnswer(k, text, choice_program, "correct" if listed != negated else "wrong", facts=tuple(facts))
+            return _option_from_selection(k, text, choice_program, scene, reference, negated, error)
         if result not in ("yes", "no"):
             return ChoiceAnswer(k, text, choice_program, None, error=f"the program gives {result!r}, not yes/no")
         facts: list[str] = []
         calls: list[int] = []
         if reference is not None:
-            if isinstance(value, ObjectRecord):
-                involved = [e for e in reference if value.id in e.objects]
-                facts.append(f"object {value.id} ({value.color} {value.material} {value.shape}) takes part in "
-                             + (", ".join(describe_event(e) for e in involved) if involved else f"none of the {len(reference)} listed events"))
-            elif isinstance(value, EventRecord):
-                found = [e for e in reference if _same_event(e, value)]
-                facts.append(f"{describe_event(value)}: " + ("found, " + ", ".join(describe_event(e) for e in found) if found
-                                                               else f"not among the {len(reference)} listed events"))
+            describe = OPTION_FACTS.get(type(value))
+            if describe is not None:
+                facts.append(describe(value, reference))
             if negated:
-                facts.append("the question is negated: the option is correct when the event/object is NOT listed")
+                facts.append(NEGATED_FACT)
         if self.config.corroborate and isinstance(value, EventRecord) and value.kind == "collision" and question_type in ("predictive", "counterfactual"):
             note = self._corroborate(value, question_type, removed)
             if note is not None:
                 facts.append(note[0])
                 calls.append(note[1])
         return ChoiceAnswer(k, text, choice_program, "correct" if result == "yes" else "wrong", facts=tuple(facts), tool_calls=tuple(calls))
+
+    @staticmethod
+    def _run_option(choice_program: tuple[str, ...], program: tuple[str, ...], scene: ProgramScene,
+                    reference: tuple[EventRecord, ...] | None, negated: bool, membership_only: bool) -> tuple[Any, Any]:
+        """(the option's value, "yes"/"no" or what the program gave); ProgramError when it does not apply."""
+        value = execute(list(choice_program), scene)
+        if not membership_only:
+            return value, execute(list(choice_program) + list(program), scene)
+        if reference is None or not isinstance(value, (ObjectRecord, EventRecord)):
+            raise ProgramError("the option is neither an object nor an event")
+        listed = (any(value.id in e.objects for e in reference) if isinstance(value, ObjectRecord)
+                  else any(_same_event(value, e) for e in reference))
+        return value, "yes" if listed != negated else "no"
 
     def _corroborate(self, event: EventRecord, question_type: str, removed: int | None) -> tuple[str, int] | None:
         """check_contact on the rollout the verdict came from (evidence, never the verdict)."""
@@ -452,6 +440,58 @@ class VideoExecutor:
         return (f"check_contact({a}, {b}) on rollout {rollout_id!r} frames {frames['frame_start']}..{frames['frame_end']}: "
                 f"{result.get('status')} (first frame {result.get('first_frame')}, nearest {result.get('nearest_distance')} m{change})",
                 self.world.last_call.index)
+
+
+NEGATED_FACT = "the question is negated: the option is correct when the event/object is NOT listed"
+
+
+def _object_facts(value: ObjectRecord, reference: tuple[EventRecord, ...]) -> str:
+    involved = [e for e in reference if value.id in e.objects]
+    return (f"object {value.id} ({value.color} {value.material} {value.shape}) takes part in "
+            + (", ".join(describe_event(e) for e in involved) if involved else f"none of the {len(reference)} listed events"))
+
+
+def _event_facts(value: EventRecord, reference: tuple[EventRecord, ...]) -> str:
+    found = [e for e in reference if _same_event(e, value)]
+    return f"{describe_event(value)}: " + ("found, " + ", ".join(describe_event(e) for e in found) if found
+                                           else f"not among the {len(reference)} listed events")
+
+
+# What an option's value says about the reference list, by the kind of value its program gives.
+OPTION_FACTS: dict[type, Any] = {ObjectRecord: _object_facts, EventRecord: _event_facts}
+
+
+def _ungrounded_option(k: int, text: str, choice_program: tuple[str, ...], bad: Sequence[Grounding],
+                       reference: tuple[EventRecord, ...] | None, negated: bool) -> ChoiceAnswer:
+    """An option whose reference fails: undecided when ambiguous (or nothing to test against); an object
+    the world does not contain (never observed) takes part in no event."""
+    if reference is None or any(g.status == "ambiguous" for g in bad):
+        return ChoiceAnswer(k, text, choice_program, None, error="; ".join(g.message() for g in bad))
+    facts = [f"{g.message()}: an object the world does not contain takes part in none of its events" for g in bad]
+    if negated:
+        facts.append(NEGATED_FACT)
+    return ChoiceAnswer(k, text, choice_program, "correct" if negated else "wrong", facts=tuple(facts))
+
+
+def _option_from_selection(k: int, text: str, choice_program: tuple[str, ...], scene: ProgramScene,
+                           reference: tuple[EventRecord, ...] | None, negated: bool, error: ProgramError) -> ChoiceAnswer:
+    """An event option whose program does not apply (its event is absent, or occurs several times):
+    decided by membership of the events it selects."""
+    candidates = _event_selection(choice_program, scene)
+    if candidates is None or reference is None:
+        return ChoiceAnswer(k, text, choice_program, None, error=f"program does not apply: {error}")
+    if not candidates:
+        # The option names an event the world's rollout does not contain: it cannot be listed.
+        listed = False
+        facts = ["the event the option names does not occur in the world's rollout, so it is not among the listed events"]
+    else:
+        # Several touches of the same pair: belong_to compares kind and objects only, so any of them decides.
+        listed = any(_same_event(candidates[0], e) for e in reference)
+        facts = [f"the option's event occurs {len(candidates)} times ({', '.join(describe_event(c) for c in candidates)}); "
+                 f"{'listed' if listed else 'not listed'} (membership ignores frames)"]
+    if negated:
+        facts.append(NEGATED_FACT)
+    return ChoiceAnswer(k, text, choice_program, "correct" if listed != negated else "wrong", facts=tuple(facts))
 
 
 def _event_selection(choice_program: tuple[str, ...], scene: ProgramScene) -> tuple[EventRecord, ...] | None:

@@ -75,14 +75,9 @@ def _decode(blob: bytes) -> dict:
 
 
 def _edits_of(rollout: Rollout) -> list[dict[str, Any]]:
-    out = []
-    for e in rollout.edits:
-        value = e.value
-        if isinstance(value, (tuple, list)):
-            value = [float(v) for v in value]
-        out.append({"edit_type": e.kind, "object_id": int(e.body), "start_frame": e.from_frame,
-                    "value": value, "other_object_id": e.other})
-    return out
+    from world.io import edit_to_tool_record
+
+    return [edit_to_tool_record(e) for e in rollout.edits]
 
 
 class SqliteStore:

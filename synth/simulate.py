@@ -14,11 +14,12 @@ import numpy as np
 
 from synth.mjcf import build_mjcf
 from synth.scene import ObjectSpec, SceneSpec, inside_view
+from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of
 from world.types import Event
 
 # Two touches of one pair less than this far apart are one collision (a
 # resting contact or a grazing slide flickers on and off between steps).
-DEBOUNCE_SECONDS = 0.2
+DEBOUNCE_SECONDS = CONTACT_EPISODE_GAP_SECONDS
 
 
 @dataclass(frozen=True)
@@ -124,7 +125,7 @@ def simulate(spec: SceneSpec, removed: int | None = None, horizon_frames: int | 
                             kind="collision",
                             bodies=pair,
                             time=float(contact_time),
-                            frame=int(round(contact_time * spec.fps)),
+                            frame=frame_of(contact_time, spec.fps),
                             position=tuple(float(v) for v in contact.pos),
                         )
                     )

@@ -4,6 +4,8 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
+from world.timebase import frame_of
+
 from tools.common import fit_error, r, vec
 from tools.registry import ToolSpec
 from tools.session import WorldSession, default_horizon_frames
@@ -32,8 +34,8 @@ def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
             "mass": r(body.mass),
             "friction": r(body.friction),
             "restitution": r(body.restitution),
-            "entry_frame": int(round(body.initial.time * world.fps)),
-            "exit_frame": None if body.active_until is None else int(round(body.active_until * world.fps)),
+            "entry_frame": frame_of(body.initial.time, world.fps),
+            "exit_frame": None if body.active_until is None else frame_of(body.active_until, world.fps),
             "initial_position": vec(body.initial.position),
             "initial_velocity": vec(body.initial.velocity),
         }

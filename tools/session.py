@@ -134,6 +134,19 @@ class WorldSession:
             )
 
     # -- creation -------------------------------------------------------------
+    def register_factual_rollout(self, horizon_frames: int, rollout_id: str) -> Rollout:
+        """The unedited world (anchored continuation) to ``horizon_frames`` under ``rollout_id``;
+        an id registered concurrently by another caller is returned as is."""
+        rollout = _simulate(self.world, (), int(horizon_frames), rollout_id)
+        try:
+            self.store.put_rollout(self.world_id, rollout, BASE_ROLLOUT_ID)
+        except Exception:  # a duplicate id (memory store: ValueError, SQLite: IntegrityError)
+            existing = self.store.get_rollout(self.world_id, rollout_id)
+            if existing is None:
+                raise
+            return existing
+        return rollout
+
     def create_rollout(self, edits: Sequence[Edit], horizon_frames: int | None, parent_id: str | None) -> Rollout:
         """Simulate ``world`` with ``edits`` under a fresh id and register it."""
         horizon = default_horizon_frames(self.world) if horizon_frames is None else int(horizon_frames)

@@ -11,6 +11,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
+from world.io import edit_to_tool_record
 from world.types import Edit, Rollout
 
 from tools.common import boundaries, column, event_record, fit_error, object_attributes, object_record, r
@@ -23,19 +24,7 @@ DEFAULT_DETAIL = "sampled"
 DEFAULT_SAMPLE_EVERY = 25
 
 
-def edit_to_dict(edit: Edit) -> dict[str, Any]:
-    value = edit.value
-    if isinstance(value, (tuple, list, np.ndarray)):
-        value = [float(v) for v in value]
-    elif value is not None:
-        value = float(value)
-    return {
-        "edit_type": edit.kind,
-        "object_id": int(edit.body),
-        "start_frame": None if edit.from_frame is None else int(edit.from_frame),
-        "value": value,
-        "other_object_id": None if edit.other is None else int(edit.other),
-    }
+edit_to_dict = edit_to_tool_record  # the tool-format record has one owner: world.io
 
 
 def build_edit(session: WorldSession, args: Mapping[str, Any], tool: str) -> Edit:

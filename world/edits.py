@@ -15,6 +15,7 @@ import dataclasses
 import math
 from typing import Sequence
 
+from world.timebase import frame_of
 from world.types import Body, Edit, World, EDIT_KINDS
 
 
@@ -44,14 +45,14 @@ def clone(world: World, new_id: str | None = None) -> World:
 
 def first_active_frame(world: World, body_id: int) -> int:
     """Frame index at which the body enters the world: ``round(initial.time * fps)``."""
-    return int(round(world.bodies[_body_index(world, body_id)].initial.time * world.fps))
+    return frame_of(world.bodies[_body_index(world, body_id)].initial.time, world.fps)
 
 
 def remove_object(world: World, body_id: int, from_frame: int | None = None) -> World:
     """Remove a body from frame ``from_frame`` on (default: its first active frame = from the start)."""
     index = _body_index(world, body_id)
     body = world.bodies[index]
-    first = int(round(body.initial.time * world.fps))
+    first = frame_of(body.initial.time, world.fps)
     if from_frame is None:
         from_frame = first
     if isinstance(from_frame, bool) or not isinstance(from_frame, int) or from_frame < 0:

@@ -223,6 +223,15 @@ def edit_to_dict(edit: Edit) -> dict[str, Any]:
             "from_frame": None if edit.from_frame is None else int(edit.from_frame)}
 
 
+# The tool API names the same fields for agents (schemas/tools/simulate_edit.*).
+_TOOL_EDIT_KEYS = {"kind": "edit_type", "body": "object_id", "from_frame": "start_frame", "value": "value", "other": "other_object_id"}
+
+
+def edit_to_tool_record(edit: Edit) -> dict[str, Any]:
+    """The edit in the tool API's vocabulary (edit_type, object_id, start_frame, value, other_object_id)."""
+    return {_TOOL_EDIT_KEYS[key]: value for key, value in edit_to_dict(edit).items()}
+
+
 def edit_from_dict(document: Mapping[str, Any]) -> Edit:
     value = document.get("value")
     if isinstance(value, list):

@@ -33,10 +33,11 @@ it is recorded in ``Rollout.notes``.
 from __future__ import annotations
 
 import math
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
 
+from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of  # noqa: F401 - frame_of re-exported
 from world.camera import footprint_visible, view_events
 from world.contacts import CIRCLE, SQUARE, Footprint, PlanarMotion, closing, footprint_distance, predict_contact
 from world.edits import apply_edits
@@ -51,8 +52,13 @@ INITIAL_OVERLAP_TOL = 1e-6  # m: bodies entering together may overlap at most th
 HORIZON_FACTOR = 1.2
 # Collisions of one pair closer than this (s) are one contact episode, as the
 # scene generator's ground truth counts them (synth: 0.2 s debounce).
-CONTACT_EPISODE_GAP = 0.2
+CONTACT_EPISODE_GAP = CONTACT_EPISODE_GAP_SECONDS
 CLUSTER_GAP = 1e-6  # m: bodies this close belong to the same jammed cluster when settling
+# A pair whose footprints stay within this gap is still touching (one contact
+# episode while a body slides along another); MuJoCo's soft contacts in the
+# ground truth likewise keep a sliding pair in contact.
+EPISODE_TOUCH_GAP = 2e-3  # m
+EPISODE_PROBE_STEP = 5e-3  # s: sampling step of the gap between two collisions of a pair
 
 
 def default_horizon(world: World) -> int:
@@ -67,11 +73,6 @@ def footprint_of(body: Body) -> Footprint:
 def pair_restitution(world: World) -> dict[tuple[int, int], float]:
     """Pair table {(id_a, id_b) sorted: e} from the world's overrides."""
     return {(min(a, b), max(a, b)): float(e) for a, b, e in world.pair_restitution}
-
-
-def frame_of(time: float, fps: float) -> int:
-    """Frame index of a time (s): round half up of ``time * fps``."""
-    return int(math.floor(time * fps + 0.5))
 
 
 def _validate_initial_overlaps(world: World) -> None:
@@ -349,13 +350,43 @@ class _Engine:
                 self.logs[k].append(inactive_segment(init.time, init.position, init.yaw))
 
 
-def merge_contact_episodes(events: Sequence[Event], gap: float = CONTACT_EPISODE_GAP) -> list[Event]:
+def _apart_for_gap(world: World, logs: Sequence[list[Segment]], pair: tuple[int, ...], t0: float, t1: float) -> bool:
+    """Whether the pair stays apart (footprint gap > EPISODE_TOUCH_GAP) for CONTACT_EPISODE_GAP s
+    without a break somewhere in (t0, t1), probed every EPISODE_PROBE_STEP on the exact flows."""
+    if t1 - t0 <= CONTACT_EPISODE_GAP:
+        return False
+    index = {b.id: k for k, b in enumerate(world.bodies)}
+    fa, fb = (footprint_of(world.bodies[index[b]]) for b in pair)
+    needed = int(math.ceil(CONTACT_EPISODE_GAP / EPISODE_PROBE_STEP))
+    apart_run = 0
+    start = t0 + EPISODE_PROBE_STEP
+    while start < t1:
+        times = np.arange(start, min(t1, start + 64 * EPISODE_PROBE_STEP), EPISODE_PROBE_STEP)
+        (pa, _, ya, _), (pb, _, yb, _) = (evaluate_segments(logs[index[b]], times) for b in pair)
+        for k in range(len(times)):
+            gap = footprint_distance(fa, pa[k, 0], pa[k, 1], ya[k], fb, pb[k, 0], pb[k, 1], yb[k])[0]
+            apart_run = apart_run + 1 if gap > EPISODE_TOUCH_GAP else 0
+            if apart_run >= needed:
+                return True
+        start = float(times[-1]) + EPISODE_PROBE_STEP
+    return False
+
+
+def merge_contact_episodes(
+    events: Sequence[Event],
+    gap: float = CONTACT_EPISODE_GAP,
+    apart: Callable[[tuple[int, ...], float, float], bool] | None = None,
+) -> list[Event]:
     """One collision event per contact episode of a pair.
 
-    A push or a rattle is several impulses a few milliseconds apart; CLEVRER
-    (and the scene generator's MuJoCo ground truth) count it as one
-    collision. A pair's collision within ``gap`` seconds of its previous one
-    joins that episode: the first event stays, with the summed impulse.
+    A push, a rattle or a body sliding along another is several impulses;
+    CLEVRER (and the scene generator's MuJoCo ground truth) count it as one
+    collision: a pair collides anew only after ``gap`` seconds without
+    contact. A pair's collision that follows its previous one without
+    ``gap`` seconds apart in between joins that episode: the first event
+    stays, with the summed impulse. ``apart(pair, t0, t1)``: whether the
+    pair was apart for ``gap`` seconds within (t0, t1) (default: t1 - t0 >
+    gap, i.e. the touch ends at the collision).
     events: in time order. Returns a new list in time order.
     """
     merged: list[Event] = []
@@ -365,7 +396,7 @@ def merge_contact_episodes(events: Sequence[Event], gap: float = CONTACT_EPISODE
             merged.append(event)
             continue
         previous = last.get(event.bodies)
-        if previous is not None and event.time - previous[1] <= gap:
+        if previous is not None and not (event.time - previous[1] > gap if apart is None else apart(event.bodies, previous[1], event.time)):
             index = previous[0]
             first = merged[index]
             merged[index] = Event(first.kind, first.bodies, first.time, first.frame, first.position, first.impulse + event.impulse)
@@ -428,7 +459,8 @@ def simulate(
         else:
             visible[:, k] = act & footprint_visible(edited.camera, body.shape, p, y)
 
-    events = merge_contact_episodes([e for _, _, e in sorted(engine.events, key=lambda item: (item[0], item[1]))])
+    events = merge_contact_episodes([e for _, _, e in sorted(engine.events, key=lambda item: (item[0], item[1]))],
+                                    apart=lambda pair, t0, t1: _apart_for_gap(edited, engine.logs, pair, t0, t1))
     for kind, k, frame in view_events(visible, active):
         body = edited.bodies[k]
         events.append(Event(kind, (body.id,), frame / fps, frame, tuple(float(x) for x in positions[frame, k]), 0.0))

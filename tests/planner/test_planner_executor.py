@@ -133,8 +133,9 @@ def test_predictive_uses_the_continuation_beyond_the_base_horizon(tool_client):
     answer = executor.answer_text("Which event will happen next?", [f"The {names[a]} cube collides with the {names[b]} cube" for a, b in pairs])
     assert answer.verdicts == ["correct" if p in future else "wrong" for p in pairs]
     assert {(0, 1), (2, 3)} == future
-    continuation = [c for c in executor.world.calls if c.tool == "simulate_edit"]
+    continuation = [c for c in executor.world.calls if c.tool == "continue_world"]
     assert len(continuation) == 1 and continuation[0].arguments["horizon_frames"] == horizon
+    assert not any(c.tool == "simulate_edit" for c in executor.world.calls)  # no edited (un-anchored) replay
     # Every collision option is corroborated by check_contact on that rollout.
     checks = [c for c in executor.world.calls if c.tool == "check_contact"]
     assert len(checks) == len(pairs)
@@ -210,7 +211,7 @@ def _scripted_world(events: list[dict], objects: list[tuple[int, str, str, str]]
     return client.world("w-mock")
 
 
-def test_an_explained_event_occurring_twice_is_decided_only_where_both_agree():
+def test_an_explained_event_occurring_twice_is_decided_by_its_first_occurrence():
     events = [_record("collision", (0, 1), 10), _record("collision", (1, 2), 30), _record("collision", (0, 1), 50),
               _record("in", (3,), 60)]
     world = _scripted_world(events, [(0, "red", "metal", "cube"), (1, "blue", "rubber", "cube"), (2, "green", "metal", "sphere"),
@@ -219,6 +220,33 @@ def test_an_explained_event_occurring_twice_is_decided_only_where_both_agree():
         "Which of the following is responsible for the collision between the red object and the blue object?",
         ["the presence of the green object", "the presence of the gray object", "the collision between the blue object and the green object"])
     # First occurrence (frame 10) has no causes; the second (frame 50) is caused by c01@10 and c12@30.
-    assert answer.verdicts == [None, "wrong", None]
-    assert "disagree" in answer.choices[0].error
+    # Every option gets a verdict: the first occurrence decides, the disagreement is stated.
+    assert answer.verdicts == ["wrong", "wrong", "wrong"]
+    assert "disagree" in answer.choices[0].facts[0] and "uncertain" in answer.choices[0].facts[0]
+    assert not any("disagree" in f for f in answer.choices[1].facts)  # both occurrences agree on the gray object
     assert "occurs 2 times" in answer.facts[0]
+
+
+def test_predictive_answers_continue_from_the_anchored_end_state(tool_client):
+    """The anchor turns body 0 towards body 1 at the end of the video; the replay from the
+    initial states sends it away. Only the anchored (unedited) continuation predicts the hit."""
+    from dataclasses import replace
+
+    from world.io import world_to_dict
+    from world.rollout import simulate
+    from world.types import Anchor, BodyState
+
+    world = _slow_world()
+    moving_away = replace(world.bodies[0], initial=BodyState((-2.0, 0.0, 0.2), (-0.30, 0.0, 0.0)))
+    end = 127 / world.fps
+    anchored = replace(world, bodies=(moving_away, *world.bodies[1:]),
+                       anchor=Anchor(end, ((0, BodyState((-1.0, 0.0, 0.2), (0.5, 0.0, 0.0), time=end)),)))
+    horizon = math.ceil(128 * 1.4)
+    assert (0, 1) in _collision_pairs(simulate(anchored, horizon_frames=horizon), at_least=128)
+    from world.types import Edit
+    unanchored = simulate(anchored, [Edit("set_friction", 0, anchored.bodies[0].friction)], horizon_frames=horizon)
+    assert (0, 1) not in _collision_pairs(unanchored)  # the old no-op-edit continuation would miss it
+    executor = VideoExecutor(tool_client.create_world(world_to_dict(anchored)))
+    answer = executor.answer_text("Which event will happen next?", ["The red cube collides with the blue cube"])
+    assert answer.verdicts == ["correct"]
+    assert not any(c.tool == "simulate_edit" for c in executor.world.calls)

@@ -28,7 +28,7 @@ PAPER_TOOLS = ["simulate_edit", "check_contact", "get_event_time", "compare_roll
 
 def test_the_seven_paper_tools_come_first_then_the_extras():
     assert tool_names()[:7] == PAPER_TOOLS
-    assert set(tool_names()[7:]) == {"list_events", "get_world_summary"}
+    assert set(tool_names()[7:]) == {"list_events", "get_world_summary", "continue_world"}
 
 
 @pytest.mark.parametrize("name", tool_names())

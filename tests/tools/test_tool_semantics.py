@@ -358,3 +358,18 @@ def test_removal_from_a_later_start_frame_keeps_the_earlier_past(session):
     cube = [o for o in result["trajectories"]["objects"] if o["object_id"] == 3][0]
     assert cube["active_frames"]["last"] == start - 1
     assert result["edit_manifest"]["applied"]["start_frame"] == start
+
+
+# --------------------------------------------------------------------------- continue_world
+def test_continue_world_is_the_unedited_world_to_a_longer_horizon(session, world):
+    from world.rollout import default_horizon
+
+    horizon = default_horizon(world) + 40
+    first = call_tool("continue_world", session, {"horizon_frames": horizon})
+    again = call_tool("continue_world", session, {"horizon_frames": horizon})
+    assert first["rollout_id"] == again["rollout_id"] != "base"
+    direct = simulate(world, horizon_frames=horizon)
+    assert [(c["objects"], c["frame"]) for c in first["collisions"]] == [
+        (list(e.bodies), e.frame) for e in direct.events if e.kind == "collision"]
+    assert first["boundaries"]["horizon_frames"] == horizon
+    assert session.rollout(first["rollout_id"], tool=None).edits == ()

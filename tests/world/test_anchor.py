@@ -81,3 +81,35 @@ def test_contact_episodes_keep_other_pairs_and_kinds():
     events = [_collision((0, 1), 0.0), Event("stop", (2,), 0.01, 0), _collision((1, 2), 0.02), _collision((0, 1), 0.05)]
     merged = merge_contact_episodes(events)
     assert [(e.kind, e.bodies) for e in merged] == [("collision", (0, 1)), ("stop", (2,)), ("collision", (1, 2))]
+
+
+def test_contact_episode_ends_only_after_the_pair_is_apart_for_the_gap():
+    # The callback says whether the pair was apart for the gap between two collisions.
+    hits = [_collision((0, 1), 0.0), _collision((0, 1), 0.5)]
+    assert len(merge_contact_episodes(hits, apart=lambda pair, t0, t1: False)) == 1  # kept touching: one collision
+    assert len(merge_contact_episodes(hits, apart=lambda pair, t0, t1: True)) == 2
+
+
+def _catch_up(restitution: float) -> World:
+    """A light-friction body hits a high-friction one head-on, separates, and catches it up again."""
+    bodies = (
+        Body(0, CYLINDER, BodyState((0.0, 0.0, 0.2), (2.0, 0.0, 0.0)), mass=1.0, friction=0.05, restitution=restitution),
+        Body(1, CYLINDER, BodyState((1.0, 0.0, 0.2)), mass=1.0, friction=0.3, restitution=restitution),
+    )
+    return World(bodies, fps=25.0, observed_frames=100)
+
+
+def test_a_pair_that_barely_separates_is_one_collision(monkeypatch):
+    import world.rollout as rollout_module
+
+    def collisions(world):
+        return [e.time for e in simulate(world, horizon_frames=150).events if e.kind == "collision"]
+
+    # e = 0.2: the pair opens ~3 cm for ~0.3 s, then meets again: two collisions.
+    assert len(collisions(_catch_up(0.2))) == 2
+    # e = 0.14: the pair is never 2 mm apart for 0.2 s: one contact episode, though the
+    # impulses are 0.21 s apart (the old rule, time since the last impulse, split it).
+    merged = collisions(_catch_up(0.14))
+    monkeypatch.setattr(rollout_module, "_apart_for_gap", lambda world, logs, pair, t0, t1: t1 - t0 > rollout_module.CONTACT_EPISODE_GAP)
+    split = collisions(_catch_up(0.14))
+    assert len(merged) == 1 and len(split) >= 2

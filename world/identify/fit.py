@@ -54,6 +54,10 @@ class FitConfig:
     tolerance: float = 1e-4
     # Bodies seen on fewer frames than this get conservative defaults.
     min_frames: int = 2
+    # Wall-clock seconds for the joint refinement of the whole scene. When it
+    # runs out, the stage being fitted keeps its best vector so far, the
+    # remaining stages are skipped, and the report says so (budget_exhausted).
+    time_budget_seconds: float = 30.0
     # simulate(world, edits, horizon_frames) -> Rollout; None: the
     # event-driven engine (a fixed-step baseline plugs in here).
     simulator: Callable[..., object] | None = None
@@ -78,6 +82,8 @@ class FitReport:
     function_evaluations: int
     seconds: float
     rmse: float  # metres, over every observed sample of every object
+    budget_exhausted: bool = False  # the joint refinement stopped at FitConfig.time_budget_seconds
+    skipped_stages: int = 0  # stages cut short or skipped because the budget ran out
 
     def to_dict(self) -> dict[str, object]:
         return {
@@ -98,6 +104,8 @@ class FitReport:
             "function_evaluations": self.function_evaluations,
             "seconds": self.seconds,
             "rmse": self.rmse,
+            "budget_exhausted": self.budget_exhausted,
+            "skipped_stages": self.skipped_stages,
         }
 
 
@@ -467,14 +475,20 @@ def _refine_component(
     horizons: Sequence[int],
     observations: Observations,
     config: FitConfig,
-) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float], int]:
+    deadline: float = math.inf,
+) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float], int, int]:
     """Cumulative-prefix least squares over one component.
+
+    deadline: ``time.perf_counter()`` value by which the component must be
+    done. Prefix stages get PREFIX_BUDGET_SHARE of the time left (skipped
+    once it is spent), the whole-video stage the rest; a stage that runs out
+    keeps its best vector so far. Returns the updated estimates, pair
+    restitutions, rollout count and the number of stages cut short or skipped.
 
     A stage fitting frames < H frees only what those frames can inform:
     bodies seen before H, masses and restitutions of collisions before H.
     Everything else keeps its current value (a parameter without data
     would otherwise drift in the optimiser's null space).
-    Returns the updated estimates, pair restitutions and rollout count.
     """
     tracks = [estimates[b].track for b in packing.bodies]
     low, high = packing.bounds()
@@ -483,8 +497,16 @@ def _refine_component(
     first_seen = {t.id: int(t.frames[t.observed][0]) for t in tracks}
     owners = packing.owners()
     evaluations = 0
+    skipped = 0
+    started = time.perf_counter()
+    prefix_deadline = started + PREFIX_BUDGET_SHARE * max(deadline - started, 0.0)
 
-    for horizon in horizons:
+    for stage, horizon in enumerate(horizons):
+        last_stage = stage == len(horizons) - 1
+        stage_deadline = deadline if last_stage else prefix_deadline
+        if time.perf_counter() > stage_deadline:
+            skipped += 1
+            continue
         seen_pairs = {p for p, frame in pair_frames.items() if frame < horizon}
         free = np.array(
             [
@@ -497,24 +519,43 @@ def _refine_component(
         if not free.any():
             continue
         fixed = vector.copy()
+        best: list = [math.inf, vector[free].copy()]  # cost, sub-vector: kept when the deadline interrupts
 
-        def fn(sub: np.ndarray, horizon: int = horizon, fixed: np.ndarray = fixed) -> np.ndarray:
+        def fn(sub: np.ndarray, horizon: int = horizon, fixed: np.ndarray = fixed, best: list = best,
+               stage_deadline: float = stage_deadline) -> np.ndarray:
             nonlocal evaluations
+            if time.perf_counter() > stage_deadline:
+                raise _BudgetExhausted
             evaluations += 1
             full = fixed.copy()
             full[free] = sub
             body_estimates, pairs = packing.unpack(full, estimates)
             world = _world([body_estimates[b] for b in packing.bodies], pairs, observations, config)
-            return _residuals(world, tracks, horizon, config.simulator)
+            residuals = _residuals(world, tracks, horizon, config.simulator)
+            cost = float(residuals @ residuals)
+            if cost < best[0]:
+                best[0], best[1] = cost, sub.copy()
+            return residuals
 
-        result = least_squares(
-            fn, vector[free], bounds=(low[free], high[free]), x_scale=scale[free],
-            max_nfev=config.max_nfev_per_stage, method="trf",
-            ftol=config.tolerance, xtol=config.tolerance, gtol=config.tolerance,
-        )
-        vector[free] = result.x
+        try:
+            result = least_squares(
+                fn, vector[free], bounds=(low[free], high[free]), x_scale=scale[free],
+                max_nfev=config.max_nfev_per_stage, method="trf",
+                ftol=config.tolerance, xtol=config.tolerance, gtol=config.tolerance,
+            )
+            vector[free] = result.x
+        except _BudgetExhausted:
+            vector[free] = best[1]
+            skipped += 1
     updated, pairs = packing.unpack(vector, estimates)
-    return updated, pairs, evaluations
+    return updated, pairs, evaluations, skipped
+
+
+PREFIX_BUDGET_SHARE = 0.6  # of a component's time budget for the prefix stages; the rest for the whole video
+
+
+class _BudgetExhausted(Exception):
+    """Raised inside the objective when FitConfig.time_budget_seconds has run out."""
 
 
 # --------------------------------------------------------------------------
@@ -578,49 +619,108 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
     """Fit an executable World to observed tracks.
 
     Returns the world (bodies carry fitted entry states, friction, masses and
-    restitution; ``provenance`` holds the fit report) and the report.
+    restitution; ``provenance`` holds the fit report) and the report. The
+    stages (docs/identification.md) are the functions called below, in order.
     """
     began = time.perf_counter()
-    fps = observations.fps
+    usable, flags = _observed_tracks(observations)
+    candidates, track_fits = _local_fits(usable, observations, config)
+    log_ratios, pair_e = _response_estimates(candidates)
+    components = _components([t.id for t in usable], [c.bodies for c in candidates])
+    masses, mass_identified = _component_masses(usable, components, log_ratios, config)
+    default_e = float(np.median(list(pair_e.values()))) if pair_e else config.restitution_prior
+    estimates, defaulted = _initial_estimates(
+        usable, track_fits, masses, mass_identified, default_e, bool(pair_e), candidates, flags, config
+    )
+    refinement = _Refinement(0, 0, 0)
+    if config.joint:
+        estimates, pair_e, refinement = _joint_refinement(
+            components, candidates, estimates, pair_e, default_e, defaulted, observations, config
+        )
+    if pair_e:
+        # Bodies carry the typical restitution for collisions not seen yet.
+        typical_e = float(np.median(list(pair_e.values())))
+        estimates = {i: replace(e, restitution=typical_e) for i, e in estimates.items()}
+    world = _world([estimates[t.id] for t in usable], pair_e, observations, config)
+    object_reports, rmse = _object_reports(world, observations, estimates, defaulted, flags, config)
+    report = FitReport(
+        objects=object_reports,
+        collisions_used=tuple((c.bodies[0], c.bodies[1], c.frame) for c in candidates),
+        components=tuple(components),
+        stages=refinement.stages,
+        function_evaluations=refinement.evaluations,
+        seconds=time.perf_counter() - began,
+        rmse=rmse,
+        budget_exhausted=refinement.skipped_stages > 0,
+        skipped_stages=refinement.skipped_stages,
+    )
+    anchor = _anchor(world, track_fits, observations, config) if usable else None
+    provenance = {"fit": report.to_dict(), "source": dict(observations.source)}
+    return replace(world, provenance=provenance, anchor=anchor), report
+
+
+def _observed_tracks(observations: Observations) -> tuple[list[ObjectTrack], dict[int, list[str]]]:
+    """The tracks with at least one observed frame, and per object id its flags (never observed)."""
     usable = [t for t in observations.objects if t.observed.sum() > 0]
     flags: dict[int, list[str]] = {t.id: [] for t in observations.objects}
     for track in observations.objects:
         if track.observed.sum() == 0:
             flags[track.id].append("never observed: left out of the world")
+    return usable, flags
+
+
+def _local_fits(
+    usable: Sequence[ObjectTrack], observations: Observations, config: FitConfig
+) -> tuple[list, dict[int, TrackFit]]:
+    """Stages 1-2: candidate collisions from the tracks, then closed-form fits of every collision-free stretch."""
     candidates = find_candidate_collisions(
-        Observations(tuple(usable), fps, observations.num_frames, observations.camera), config.gravity, config.friction_prior
+        Observations(tuple(usable), observations.fps, observations.num_frames, observations.camera),
+        config.gravity, config.friction_prior,
     )
     breakpoints: dict[int, list[int]] = {t.id: [] for t in usable}
     for c in candidates:
         for body in c.bodies:
             breakpoints[body].append(c.frame)
-    track_fits = {t.id: _fit_stretches(t, breakpoints[t.id], fps, config) for t in usable}
+    track_fits = {t.id: _fit_stretches(t, breakpoints[t.id], observations.fps, config) for t in usable}
+    return candidates, track_fits
 
-    # Friction: own estimate, else the median of similar objects, else the prior.
-    own_friction = {i: _friction_estimate(f) for i, f in track_fits.items()}
-    defaulted: dict[int, dict[str, str]] = {t.id: {} for t in usable}
 
-    def similar_friction(track: ObjectTrack) -> float:
-        for same in (
-            lambda o: o.material == track.material and o.shape.kind == track.shape.kind,
-            lambda o: True,
-        ):
-            values = [own_friction[o.id] for o in usable if o.id != track.id and same(o) and own_friction[o.id] is not None]
-            if values:
-                return float(np.median(values))
-        return config.friction_prior
-
-    log_ratios, pair_e = _response_estimates(candidates)
-    components = _components([t.id for t in usable], [c.bodies for c in candidates])
+def _component_masses(
+    usable: Sequence[ObjectTrack], components: Sequence[tuple[int, ...]],
+    log_ratios: Mapping, config: FitConfig,
+) -> tuple[dict[int, float], set[int]]:
+    """Stage 3: masses (kg) per contact-connected component, scaled by the semantic prior; the ids whose mass was identified."""
     priors = {t.id: prior_mass(t, config.density_prior) for t in usable}
     masses: dict[int, float] = {}
-    mass_identified: set[int] = set()
+    identified: set[int] = set()
     for component in components:
-        component_masses, identified = _solve_masses(component, log_ratios, priors)
+        component_masses, component_identified = _solve_masses(component, log_ratios, priors)
         masses.update(component_masses)
-        mass_identified |= identified
-    default_e = float(np.median(list(pair_e.values()))) if pair_e else config.restitution_prior
+        identified |= component_identified
+    return masses, identified
 
+
+def _similar_friction(track: ObjectTrack, usable: Sequence[ObjectTrack], own: Mapping[int, float | None], prior: float) -> float:
+    """The median identified friction of similar objects (same material and shape, then any), else the prior."""
+    for same in (
+        lambda o: o.material == track.material and o.shape.kind == track.shape.kind,
+        lambda o: True,
+    ):
+        values = [own[o.id] for o in usable if o.id != track.id and same(o) and own[o.id] is not None]
+        if values:
+            return float(np.median(values))
+    return prior
+
+
+def _initial_estimates(
+    usable: Sequence[ObjectTrack], track_fits: Mapping[int, TrackFit], masses: Mapping[int, float],
+    mass_identified: set[int], default_e: float, restitution_observed: bool, candidates: Sequence,
+    flags: dict[int, list[str]], config: FitConfig,
+) -> tuple[dict[int, BodyEstimate], dict[int, dict[str, str]]]:
+    """Per body: the entry state of its first stretch, friction (own, similar objects, prior), mass;
+    and per body what was defaulted and why. Appends to ``flags``."""
+    own_friction = {i: _friction_estimate(f) for i, f in track_fits.items()}
+    defaulted: dict[int, dict[str, str]] = {t.id: {} for t in usable}
     estimates: dict[int, BodyEstimate] = {}
     for track in usable:
         fit = track_fits[track.id]
@@ -633,7 +733,7 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
             first = replace(first, velocity=fit.stretches[1].velocity)
         friction = own_friction[track.id]
         if friction is None:
-            friction = similar_friction(track)
+            friction = _similar_friction(track, usable, own_friction, config.friction_prior)
             defaulted[track.id]["friction"] = "no observed deceleration: median of similar objects"
         if track.id not in mass_identified:
             defaulted[track.id]["mass"] = "no informative collision: density prior x shape volume"
@@ -654,44 +754,68 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
             restitution=default_e,
             rest_start=rest_start,
         )
-        if not pair_e and any(track.id in c.bodies for c in candidates):
+        if not restitution_observed and any(track.id in c.bodies for c in candidates):
             defaulted[track.id]["restitution"] = "no approaching collision observed: prior"
+    return estimates, defaulted
 
-    evaluations = 0
-    stages = 0
-    if config.joint:
-        for component in components:
-            pairs = tuple(sorted({c.bodies for c in candidates if c.bodies[0] in component}))
-            if not pairs:
-                continue  # a lone body's local fit is already its exact closed form
-            for pair in pairs:
-                pair_e.setdefault(pair, default_e)
-            frames = sorted({c.frame for c in candidates if c.bodies[0] in component})
-            horizons = sorted({min(f + config.prefix_margin_frames, observations.num_frames) for f in frames} | {observations.num_frames})
-            packing = _Packing(component, pairs, tuple(not estimates[b].rest_start for b in component))
-            pair_frames = {}
-            for c in candidates:
-                pair_frames.setdefault(c.bodies, c.frame)
-            updated, fitted_e, used = _refine_component(
-                packing, estimates, pair_e, pair_frames, horizons, observations, config
-            )
-            estimates.update(updated)
-            pair_e.update(fitted_e)
-            for body in {b for pair in pairs for b in pair}:
-                # The joint fit identified them from the collision it replays.
-                defaulted[body].pop("mass", None)
-                defaulted[body].pop("restitution", None)
-            evaluations += used
-            stages += len(horizons)
 
-    if pair_e:
-        # Bodies carry the typical restitution for collisions not seen yet.
-        typical_e = float(np.median(list(pair_e.values())))
-        estimates = {i: replace(e, restitution=typical_e) for i, e in estimates.items()}
-    world = _world([estimates[t.id] for t in usable], pair_e, observations, config)
+@dataclass(frozen=True)
+class _Refinement:
+    """What the joint refinement cost: rollouts evaluated, prefix stages, stages cut short or skipped."""
+
+    evaluations: int
+    stages: int
+    skipped_stages: int
+
+
+def _joint_refinement(
+    components: Sequence[tuple[int, ...]], candidates: Sequence, estimates: dict[int, BodyEstimate],
+    pair_e: dict[tuple[int, int], float], default_e: float, defaulted: dict[int, dict[str, str]],
+    observations: Observations, config: FitConfig,
+) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float], _Refinement]:
+    """Stage 4: cumulative-prefix least squares per component with collisions, within the time budget.
+    Updates ``defaulted`` (mass and restitution of the bodies in replayed collisions are identified)."""
+    estimates, pair_e = dict(estimates), dict(pair_e)
+    evaluations = stages = skipped_stages = 0
+    deadline = time.perf_counter() + config.time_budget_seconds
+    joint_components = [c for c in components if any(k.bodies[0] in c for k in candidates)]
+    pair_frames: dict[tuple[int, int], int] = {}
+    for c in candidates:
+        pair_frames.setdefault(c.bodies, c.frame)
+    for component in joint_components:
+        pairs = tuple(sorted({c.bodies for c in candidates if c.bodies[0] in component}))
+        for pair in pairs:
+            pair_e.setdefault(pair, default_e)
+        frames = sorted({c.frame for c in candidates if c.bodies[0] in component})
+        horizons = sorted({min(f + config.prefix_margin_frames, observations.num_frames) for f in frames} | {observations.num_frames})
+        packing = _Packing(component, pairs, tuple(not estimates[b].rest_start for b in component))
+        # Components left share the time left equally.
+        left = len(joint_components) - joint_components.index(component)
+        component_deadline = time.perf_counter() + max(deadline - time.perf_counter(), 0.0) / left
+        updated, fitted_e, used, skipped = _refine_component(
+            packing, estimates, pair_e, pair_frames, horizons, observations, config, component_deadline
+        )
+        estimates.update(updated)
+        pair_e.update(fitted_e)
+        for body in {b for pair in pairs for b in pair}:
+            # The joint fit identified them from the collision it replays.
+            defaulted[body].pop("mass", None)
+            defaulted[body].pop("restitution", None)
+        evaluations += used
+        stages += len(horizons)
+        skipped_stages += skipped
+    return estimates, pair_e, _Refinement(evaluations, stages, skipped_stages)
+
+
+def _object_reports(
+    world: World, observations: Observations, estimates: Mapping[int, BodyEstimate],
+    defaulted: Mapping[int, Mapping[str, str]], flags: Mapping[int, list[str]], config: FitConfig,
+) -> tuple[tuple[ObjectFitReport, ...], float]:
+    """Per object: RMSE (m) of the fitted replay over its observed frames, what was identified or
+    defaulted; and the RMSE over every observed sample (0 when nothing was observed)."""
     object_reports = []
     squared_errors = []
-    if usable:
+    if estimates:
         positions, _, order = _positions(world, max(observations.num_frames, 1), config.simulator)
         column = {b: k for k, b in enumerate(order)}
     for track in observations.objects:
@@ -708,15 +832,5 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
         object_reports.append(
             ObjectFitReport(track.id, rmse, int(use.sum()), identified, dict(defaulted[track.id]), tuple(flags[track.id]))
         )
-    report = FitReport(
-        objects=tuple(object_reports),
-        collisions_used=tuple((c.bodies[0], c.bodies[1], c.frame) for c in candidates),
-        components=tuple(components),
-        stages=stages,
-        function_evaluations=evaluations,
-        seconds=time.perf_counter() - began,
-        rmse=float(np.sqrt(np.mean(np.concatenate(squared_errors)))) if squared_errors else 0.0,
-    )
-    anchor = _anchor(world, track_fits, observations, config) if usable else None
-    provenance = {"fit": report.to_dict(), "source": dict(observations.source)}
-    return replace(world, provenance=provenance, anchor=anchor), report
+    total = float(np.sqrt(np.mean(np.concatenate(squared_errors)))) if squared_errors else 0.0
+    return tuple(object_reports), total

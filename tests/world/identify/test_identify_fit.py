@@ -144,3 +144,14 @@ def test_mass_prior_uses_the_mesh_volume_when_there_is_one(tmp_path):
     plain = ObjectTrack(0, Shape("cube", half_extent=0.2), np.arange(2), np.zeros((2, 3)),
                         np.zeros(2), np.ones(2, bool), np.ones(2), material="rubber")
     assert prior_mass(plain, {"rubber": 1000.0}) == pytest.approx(1000.0 * 0.4**3)
+
+
+def test_time_budget_keeps_the_best_fit_and_says_so():
+    observations = _observe(CHAIN, CHAIN.observed_frames)
+    _, full = identify(observations)
+    assert not full.budget_exhausted and full.skipped_stages == 0
+    assert full.to_dict()["budget_exhausted"] is False
+    # No time at all: every joint stage is skipped, the local fits stand, the report says so.
+    _, none = identify(observations, FitConfig(time_budget_seconds=0.0))
+    assert none.budget_exhausted and none.skipped_stages == full.stages and none.function_evaluations == 0
+    assert none.to_dict()["budget_exhausted"] is True

@@ -16,12 +16,13 @@ import numpy as np
 
 from perception.attributes import color_of, material_of
 from perception.background import estimate_background
-from perception.geometry import project, ray_depths, primitive_window
+from perception.geometry import ray_depths, primitive_window
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
 from perception.segment import ClassicalSegmenter
 from perception.track import HungarianTracker
 from perception.types import Attributes, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
+from world.camera import project
 from world.identify.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
 from world.types import Camera, SHAPE_KINDS
 

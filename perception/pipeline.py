@@ -16,7 +16,7 @@ import numpy as np
 
 from perception.attributes import color_of, material_of
 from perception.background import estimate_background
-from perception.geometry import ray_depths, primitive_window
+from perception.geometry import backproject_to_height, ray_depths, primitive_window
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
 from perception.segment import ClassicalSegmenter
 from perception.track import HungarianTracker
@@ -144,10 +144,33 @@ def _renumber(lifted: list[LiftedTrack]) -> list[LiftedTrack]:
     return [replace(t, id=k) for k, t in enumerate(ordered)]
 
 
+MIN_CONTRAST = 4.0  # grey levels between the 1st and 99th percentile below which a frame is blank (black, one colour)
+MOVING_PIXELS = 60  # px: a frame differing from the video's median in fewer pixels than this shows no motion
+MOVING_DIFFERENCE = 12  # grey levels: a pixel this far from the video's median changed
+
+
 def check_frames(frames: np.ndarray, camera: Camera) -> None:
+    """One clear ValueError for input perception cannot work on (before any heavy work).
+
+    frames: (F, H, W, 3) uint8. Checks: the resolution is the camera's, the
+    camera looks down at the floor plane z = 0, the video is not blank, and
+    something moves in it.
+    """
     height, width = frames.shape[1:3]
     if (width, height) != (camera.width, camera.height):
         raise ValueError(f"camera: width x height {camera.width}x{camera.height} does not match the video's {width}x{height} pixels")
+    centre = backproject_to_height(camera, np.array([[camera.cx, camera.cy]]), 0.0)[0]
+    if not np.all(np.isfinite(centre)):
+        raise ValueError("camera: the image centre does not look down at the floor plane z = 0 (wrong camera file?)")
+    sample = frames[:: max(1, frames.shape[0] // 16), ::2, ::2]  # enough for both checks, cheap
+    grey = sample.mean(axis=-1)
+    contrast = float(np.median(np.percentile(grey.reshape(len(grey), -1), 99, axis=1) - np.percentile(grey.reshape(len(grey), -1), 1, axis=1)))
+    if contrast < MIN_CONTRAST:
+        raise ValueError(f"video: the frames are blank (contrast {contrast:.0f} grey levels; black or a single colour): nothing to perceive")
+    median = np.median(sample, axis=0)
+    changed = (np.abs(sample.astype(np.float32) - median).max(axis=-1) > MOVING_DIFFERENCE).sum(axis=(1, 2)) * 4  # full-size px
+    if int(changed.max()) < MOVING_PIXELS:
+        raise ValueError("video: nothing moves (every frame equals the video's median image): no moving object to perceive")
 
 
 def perceive_frames(frames: np.ndarray, camera: Camera, *, fps: float = 25.0, progress: bool = False,
@@ -171,6 +194,9 @@ def perceive_frames(frames: np.ndarray, camera: Camera, *, fps: float = 25.0, pr
                     yaw=t.yaw, visible=t.visible, weights=t.weights, color=t.attributes.color, material=t.attributes.material)
         for t in lifted
     )
+    if not objects:
+        raise ValueError("video: no object found (something moves, but no sphere, cube or cylinder of the known size "
+                         "explains it; is the camera file the one of this video?)")
     observations = Observations(objects=objects, fps=fps, num_frames=int(frames.shape[0]), camera=camera,
                                 source={"kind": "perception", "method": "classical background + primitive fit"})
     return observations, {"segments": segments, "tracks": tracks, "lifted": lifted, "timings": timings}

@@ -12,11 +12,12 @@ import numpy as np
 from planner.program import EventRecord, ObjectRecord, ProgramScene
 from synth.masks import bbox_of, encode_mask
 from synth.mjcf import CONTACT_HALF_PERIOD, TIMESTEP, pair_restitution
-from synth.scene import GRAVITY, SceneSpec, camera_fovy_deg
+from synth.looks import look_document
+from synth.scene import GRAVITY, SceneSpec, camera_fovy_deg, camera_geometry
 from synth.simulate import DEBOUNCE_SECONDS, SimResult
 from world.types import Event
 
-GENERATOR_VERSION = "synth-1"
+GENERATOR_VERSION = "synth-2"  # synth-2 adds ground_truth.look; synth-1 files are the default look
 
 
 def video_filename(index: int) -> str:
@@ -149,6 +150,7 @@ def ground_truth_document(spec: SceneSpec, sim: SimResult, counterfactuals: dict
             "pair_parameters": by_pair,
         },
         "camera": camera_document(spec),
+        "look": {**look_document(spec.look), "camera_geometry": {k: round(v, 4) for k, v in camera_geometry(spec.camera).items()}},
         "objects": objects,
         "trajectory": {"frame_ids": list(range(spec.horizon_frames)), "objects": trajectory_objects},
         "events": [event_document(e, spec.observed_frames) for e in sim.events],

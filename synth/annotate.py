@@ -17,6 +17,8 @@ from synth.scene import GRAVITY, SceneSpec, camera_fovy_deg, camera_geometry
 from synth.simulate import DEBOUNCE_SECONDS, SimResult
 from world.types import Event
 
+MIN_SEEN_FRAMES = 5  # an object shown in fewer observed frames is not named in questions
+
 GENERATOR_VERSION = "synth-2"  # synth-2 adds ground_truth.look; synth-1 files are the default look
 
 
@@ -205,6 +207,14 @@ def proposals_document(spec: SceneSpec, instance: np.ndarray) -> dict:
 
 
 # --- ground truth -> program scene (shared by the generator and the tests) ---
+
+
+def seen_object_ids(ground_truth: dict, min_frames: int = MIN_SEEN_FRAMES) -> frozenset[int]:
+    """Ids of the objects whose centre is in view in at least ``min_frames`` observed frames."""
+    observed = int(ground_truth["observed_frames"])
+    return frozenset(
+        int(o["object_id"]) for o in ground_truth["trajectory"]["objects"] if sum(bool(v) for v in o["inside_camera_view"][:observed]) >= min_frames
+    )
 
 
 def _event_record(row: dict) -> EventRecord:

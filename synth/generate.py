@@ -15,6 +15,7 @@ from synth.annotate import (
     ground_truth_document,
     program_scene_from_ground_truth,
     proposals_document,
+    seen_object_ids,
     video_filename,
 )
 from synth.looks import look_seed_sequence, sample_look
@@ -118,7 +119,7 @@ def generate_scene(out: Path, seed: int, index: int, looks: str = "default") -> 
     _dump(out / "masks" / f"proposal_{index:05d}.json", proposals_document(spec, instance))
 
     question_rng = np.random.default_rng(np.random.SeedSequence([seed, index, 1]))
-    questions = scene_questions(program_scene_from_ground_truth(ground_truth), question_rng)
+    questions = scene_questions(program_scene_from_ground_truth(ground_truth), question_rng, seen_object_ids(ground_truth))
     entry = {"scene_index": index, "video_filename": video_filename(index), "questions": questions}
 
     by_type: dict[str, int] = {}

@@ -22,7 +22,7 @@ from perception.segment import ClassicalSegmenter
 from perception.track import HungarianTracker
 from perception.types import Attributes, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
-from world.camera import project
+from world.camera import footprint_visible
 from world.identify.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
 from world.types import Camera, SHAPE_KINDS
 
@@ -34,6 +34,9 @@ MIN_SHAPE_SCORE = 0.4  # mean silhouette overlap below which a track is not an o
 WEIGHT_BORDER = 0.5
 WEIGHT_TOUCHING = 0.6
 WEIGHT_SPLIT = 0.3
+WEIGHT_EXTRAPOLATED = 0.05  # frames added through the border at constant velocity (no evidence of their own)
+EXTRAPOLATION_BASE = 4  # frames at a track's end whose motion is extrapolated through the border
+MAX_EXTRAPOLATED_FRAMES = 10
 
 
 def _isolated_frames(track: TrackState, segments: list[FrameSegments]) -> list[int]:
@@ -92,7 +95,7 @@ class PrimitiveLifter:
             material, ratio = material_of(detections, frames, kind)
             attributes = Attributes(color=color, shape=kind, material=material, confidence=float(np.clip(margin * 5, 0, 1)),
                                     highlight_ratio=ratio, shape_score=shape_score)
-            frame_ids, positions, yaws, visible, weights = [], [], [], [], []
+            frame_ids, positions, yaws, weights = [], [], [], []
             previous: Fit | None = None
             for frame, det in sorted(track.detections.items()):
                 fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous)
@@ -104,16 +107,56 @@ class PrimitiveLifter:
                     weight *= WEIGHT_SPLIT
                 elif sum(1 for d in segments[frame].detections if d.component == det.component) > 1:
                     weight *= WEIGHT_TOUCHING
-                pixel = project(camera, fit.centre)
-                inside = bool(np.all(np.isfinite(pixel)) and -0.5 <= pixel[0] <= camera.width - 0.5 and -0.5 <= pixel[1] <= camera.height - 0.5)
                 frame_ids.append(frame)
                 positions.append(fit.centre)
                 yaws.append(fit.yaw if kind == "cube" else np.nan)
-                visible.append(inside)
                 weights.append(weight)
-            lifted.append(LiftedTrack(track.id, attributes, np.asarray(frame_ids, dtype=np.int64), np.asarray(positions),
-                                      np.asarray(yaws), np.asarray(visible), np.asarray(weights)))
+            frame_ids, positions, yaws, weights = _extend_through_border(
+                camera, kind, self.size, frames.shape[0], track, np.asarray(frame_ids, dtype=np.int64),
+                np.asarray(positions), np.asarray(yaws), np.asarray(weights))
+            visible = footprint_visible(camera, default_shape(kind, self.size), positions, np.nan_to_num(yaws))
+            lifted.append(LiftedTrack(track.id, attributes, frame_ids, positions, yaws, visible, weights))
         return _renumber(_drop_duplicates(lifted, self.size))
+
+
+def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: int, track: TrackState,
+                           frames: np.ndarray, positions: np.ndarray, yaws: np.ndarray, weights: np.ndarray):
+    """Extend a track that enters (leaves) through the image border backwards (forwards) at constant
+    velocity over the frames where its footprint is already (still) in view but too little of it
+    shows to be segmented, so that entry and exit frames follow the same visibility rule as the
+    truth (world.camera.footprint_visible). Added frames get weight WEIGHT_EXTRAPOLATED.
+
+    frames (T,), positions (T, 3) m, yaws (T,), weights (T,) -> the same, extended.
+    """
+    shape = default_shape(kind, size)
+    ends = []
+    for first, step in ((True, -1), (False, 1)):
+        k = 0 if first else len(frames) - 1
+        if not track.detections[int(frames[k])].touches_border or len(frames) < EXTRAPOLATION_BASE + 1:
+            ends.append(([], []))
+            continue
+        base = positions[:EXTRAPOLATION_BASE + 1] if first else positions[-EXTRAPOLATION_BASE - 1:]
+        base_frames = frames[:EXTRAPOLATION_BASE + 1] if first else frames[-EXTRAPOLATION_BASE - 1:]
+        velocity = (base[-1] - base[0]) / max(int(base_frames[-1] - base_frames[0]), 1)  # m per frame
+        added_frames, added_positions = [], []
+        for n in range(1, MAX_EXTRAPOLATED_FRAMES + 1):
+            frame = int(frames[k]) + step * n
+            if not 0 <= frame < num_frames:
+                break
+            position = positions[k] + velocity * step * n
+            if not footprint_visible(camera, shape, position[None], np.zeros(1))[0]:
+                break
+            added_frames.append(frame)
+            added_positions.append(position)
+        ends.append((added_frames, added_positions))
+    (before, before_pos), (after, after_pos) = ends
+    if not before and not after:
+        return frames, positions, yaws, weights
+    # cube yaw is held at the nearest fitted value (NaN for other shapes stays NaN)
+    return (np.concatenate([np.asarray(before[::-1], np.int64), frames, np.asarray(after, np.int64)]),
+            np.concatenate([np.asarray(before_pos[::-1]).reshape(-1, 3), positions, np.asarray(after_pos).reshape(-1, 3)]),
+            np.concatenate([np.full(len(before), yaws[0]), yaws, np.full(len(after), yaws[-1])]),
+            np.concatenate([np.full(len(before), WEIGHT_EXTRAPOLATED), weights, np.full(len(after), WEIGHT_EXTRAPOLATED)]))
 
 
 def _drop_duplicates(lifted: list[LiftedTrack], size: float) -> list[LiftedTrack]:

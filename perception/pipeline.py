@@ -37,6 +37,9 @@ WEIGHT_SPLIT = 0.3
 WEIGHT_EXTRAPOLATED = 0.05  # frames added through the border at constant velocity (no evidence of their own)
 EXTRAPOLATION_BASE = 4  # frames at a track's end whose motion is extrapolated through the border
 MAX_EXTRAPOLATED_FRAMES = 10
+MAX_LINK_GAP = 40  # frames: longest gap (occlusion, lost detection) across which two tracklets are joined
+LINK_GATE = 0.45  # m: largest distance between a tracklet's predicted position and the next one's start ...
+LINK_GATE_PER_FRAME = 0.02  # ... plus this per frame of gap (the prediction is held after 5 frames)
 
 
 def _isolated_frames(track: TrackState, segments: list[FrameSegments]) -> list[int]:
@@ -116,7 +119,7 @@ class PrimitiveLifter:
                 np.asarray(positions), np.asarray(yaws), np.asarray(weights))
             visible = footprint_visible(camera, default_shape(kind, self.size), positions, np.nan_to_num(yaws))
             lifted.append(LiftedTrack(track.id, attributes, frame_ids, positions, yaws, visible, weights))
-        return _renumber(_drop_duplicates(lifted, self.size))
+        return _renumber(_associate(lifted, self.size))
 
 
 def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: int, track: TrackState,
@@ -159,24 +162,74 @@ def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: i
             np.concatenate([np.full(len(before), WEIGHT_EXTRAPOLATED), weights, np.full(len(after), WEIGHT_EXTRAPOLATED)]))
 
 
-def _drop_duplicates(lifted: list[LiftedTrack], size: float) -> list[LiftedTrack]:
-    """Two solid objects cannot have centres closer than one size apart: when two tracks
-    share most of their common frames that closely, the one with the worse fit is a fragment."""
+def _union(keep: LiftedTrack, other: LiftedTrack) -> LiftedTrack:
+    """One track from two tracklets of one object: all frames of both; on a frame both hold, the
+    sample with the larger weight; attributes of ``keep`` (the better supported tracklet)."""
+    from dataclasses import replace
+
+    frames = np.union1d(keep.frames, other.frames)
+    rows = {}
+    for track in (other, keep):  # keep's samples win ties
+        for k, frame in enumerate(track.frames):
+            current = rows.get(int(frame))
+            if current is None or track.weights[k] >= current[0].weights[current[1]]:
+                rows[int(frame)] = (track, k)
+    pick = [rows[int(f)] for f in frames]
+    return replace(keep, frames=frames.astype(np.int64),
+                   positions=np.array([t.positions[k] for t, k in pick]), yaw=np.array([t.yaw[k] for t, k in pick]),
+                   visible=np.array([t.visible[k] for t, k in pick]), weights=np.array([t.weights[k] for t, k in pick]))
+
+
+def _same_look(a: LiftedTrack, b: LiftedTrack) -> bool:
+    return a.attributes.color == b.attributes.color and a.attributes.shape == b.attributes.shape
+
+
+def _link_cost(earlier: LiftedTrack, later: LiftedTrack, size: float) -> float:
+    """Ground distance (m) between ``earlier``'s constant-velocity prediction and ``later``'s first
+    position, for a tracklet that starts after the other ends; inf when they cannot be one object."""
+    gap = int(later.frames[0] - earlier.frames[-1])
+    if not 0 < gap <= MAX_LINK_GAP or not _same_look(earlier, later):
+        return np.inf
+    base = earlier.positions[-EXTRAPOLATION_BASE - 1:]
+    span = max(int(earlier.frames[-1] - earlier.frames[-min(len(earlier.frames), EXTRAPOLATION_BASE + 1)]), 1)
+    velocity = (base[-1] - base[0]) / span
+    predicted = earlier.positions[-1] + velocity * min(gap, 5)
+    distance = float(np.linalg.norm(predicted[:2] - later.positions[0, :2]))
+    return distance if distance <= LINK_GATE + LINK_GATE_PER_FRAME * gap else np.inf
+
+
+def _associate(lifted: list[LiftedTrack], size: float) -> list[LiftedTrack]:
+    """Global association of tracklets over the whole video.
+
+    1. Duplicates: two tracklets whose centres stay closer than one object size on most common
+       frames are one object (two solid objects cannot be that close): the better supported one
+       takes the other's frames.
+    2. Fragments: a tracklet that starts after another of the same colour and shape ended, near
+       where that one was heading, continues it (an occlusion, a merge with a touching object, a
+       lost detection). Links are made cheapest first, each tracklet continuing at most one.
+    """
     order = sorted(lifted, key=lambda t: (t.attributes.shape_score * len(t.frames)), reverse=True)
     kept: list[LiftedTrack] = []
     for track in order:
-        duplicate = False
-        for other in kept:
+        for index, other in enumerate(kept):
             common, ia, ib = np.intersect1d(track.frames, other.frames, return_indices=True)
             if common.size == 0:
                 continue
             gaps = np.linalg.norm(track.positions[ia, :2] - other.positions[ib, :2], axis=1)
             if np.mean(gaps < size) > 0.5:
-                duplicate = True
+                kept[index] = _union(other, track) if _same_look(track, other) else other
                 break
-        if not duplicate:
+        else:
             kept.append(track)
-    return kept
+    while True:
+        costs = [(_link_cost(a, b, size), i, j) for i, a in enumerate(kept) for j, b in enumerate(kept) if i != j]
+        finite = [c for c in costs if np.isfinite(c[0])]
+        if not finite:
+            return kept
+        _, i, j = min(finite)
+        a, b = kept[i], kept[j]
+        better, worse = (a, b) if a.attributes.shape_score * len(a.frames) >= b.attributes.shape_score * len(b.frames) else (b, a)
+        kept = [t for k, t in enumerate(kept) if k not in (i, j)] + [_union(better, worse)]
 
 
 def _renumber(lifted: list[LiftedTrack]) -> list[LiftedTrack]:

@@ -369,6 +369,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes")
     parser.add_argument("--cache", type=Path, default=None, help="keep per-scene results (scene_XXXXX.json) here and reuse them")
+    parser.add_argument("--cached-only", action="store_true", help="report on the scenes already in --cache only (no new perception)")
     parser.add_argument("--json", type=Path, default=None, help="write the tables and per-scene reports here")
     args = parser.parse_args(argv)
     from tqdm import tqdm
@@ -379,6 +380,10 @@ def main(argv: list[str] | None = None) -> int:
     from planner.local_server import local_server
 
     entries = load_dataset(args.data, limit=args.limit)
+    if args.cached_only:
+        if args.cache is None:
+            raise SystemExit("--cached-only: needs --cache DIR")
+        entries = [e for e in entries if (args.cache / f"scene_{e.scene_index:05d}.json").is_file()]
     print(f"# {len(entries)} scenes, {sum(len(e.questions) for e in entries)} questions from {args.data}")
     results: dict[int, dict] = {}
     todo = []

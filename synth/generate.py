@@ -118,9 +118,8 @@ def generate_scene(out: Path, seed: int, index: int, looks: str = "default") -> 
     _dump(out / "ground_truth" / f"scene_{index:05d}.json", ground_truth)
     _dump(out / "masks" / f"proposal_{index:05d}.json", proposals_document(spec, instance))
 
-    question_rng = np.random.default_rng(np.random.SeedSequence([seed, index, 1]))
-    questions = scene_questions(program_scene_from_ground_truth(ground_truth), question_rng, seen_object_ids(ground_truth))
-    entry = {"scene_index": index, "video_filename": video_filename(index), "questions": questions}
+    entry = questions_entry(ground_truth, seed, index)
+    questions = entry["questions"]
 
     by_type: dict[str, int] = {}
     for q in questions:
@@ -141,6 +140,13 @@ def generate_scene(out: Path, seed: int, index: int, looks: str = "default") -> 
         seconds=time.perf_counter() - start,
     )
     return entry, stats
+
+
+def questions_entry(ground_truth: dict, seed: int, index: int) -> dict:
+    """Scene ``index``'s questions.json entry, from its ground truth (stream [seed, index, 1])."""
+    question_rng = np.random.default_rng(np.random.SeedSequence([seed, index, 1]))
+    questions = scene_questions(program_scene_from_ground_truth(ground_truth), question_rng, seen_object_ids(ground_truth))
+    return {"scene_index": index, "video_filename": video_filename(index), "questions": questions}
 
 
 def write_questions(out: Path, entries: list[dict]) -> Path:

@@ -272,7 +272,11 @@ def check_frames(frames: np.ndarray, camera: Camera) -> None:
 def perceive_frames(frames: np.ndarray, camera: Camera, *, fps: float = 25.0, progress: bool = False,
                     segmenter: Segmenter | None = None, tracker: Tracker | None = None, lifter: Lifter | None = None,
                     object_size: float = DEFAULT_OBJECT_SIZE) -> tuple[Observations, dict]:
-    """(F, H, W, 3) uint8 frames -> (Observations, intermediates dict with segments / tracks / lifted / timings)."""
+    """(F, H, W, 3) uint8 frames -> (Observations, intermediates dict with segments / tracks / lifted / timings).
+
+    Raises ValueError (one line naming the problem) for input perception cannot work on
+    (check_frames) and when no object is found: never an empty world.
+    """
     check_frames(frames, camera)
     timings = {}
     began = time.perf_counter()

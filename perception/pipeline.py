@@ -16,9 +16,9 @@ import numpy as np
 
 from perception.attributes import color_of, material_of
 from perception.background import estimate_background
-from perception.geometry import backproject_to_height, ray_depths, primitive_window
+from perception.geometry import backproject_to_height, ray_depths, primitive_window, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
-from perception.segment import ClassicalSegmenter
+from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter
 from perception.track import HungarianTracker
 from perception.types import Attributes, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
@@ -125,8 +125,8 @@ class PrimitiveLifter:
 def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: int, track: TrackState,
                            frames: np.ndarray, positions: np.ndarray, yaws: np.ndarray, weights: np.ndarray):
     """Extend a track that enters (leaves) through the image border backwards (forwards) at constant
-    velocity over the frames where its footprint is already (still) in view but too little of it
-    shows to be segmented, so that entry and exit frames follow the same visibility rule as the
+    velocity over the frames where its footprint is already (still) in view but less of its
+    silhouette than MIN_SEGMENT_AREA is inside the image (too little to be segmented), so that entry and exit frames follow the same visibility rule as the
     truth (world.camera.footprint_visible). Added frames get weight WEIGHT_EXTRAPOLATED.
 
     frames (T,), positions (T, 3) m, yaws (T,), weights (T,) -> the same, extended.
@@ -149,6 +149,8 @@ def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: i
             position = positions[k] + velocity * step * n
             if not footprint_visible(camera, shape, position[None], np.zeros(1))[0]:
                 break
+            if silhouette(camera, kind, position, size)[1].sum() >= MIN_SEGMENT_AREA:
+                break  # this much of it in view would have been segmented: it was not there
             added_frames.append(frame)
             added_positions.append(position)
         ends.append((added_frames, added_positions))

@@ -162,7 +162,7 @@ def evaluate_scene(root: Path, index: int, e2e: bool) -> dict:
         "switches": switches, "fragmented": fragmented, "errors": errors, "attributes": attribute_hits,
         "objects": len(true_ids), "tracks": len(pred_ids), "missed_objects": missed_objects,
         "timings": inter["timings"], "event_errors": event_errors,
-        "look": json.loads((root / "ground_truth" / f"scene_{name}.json").read_text())["generator"].get("look", {}),
+        "look": json.loads((root / "ground_truth" / f"scene_{name}.json").read_text()).get("look") or {},
     }
     if e2e:
         relabelled = []

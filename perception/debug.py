@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from perception.types import LiftedTrack
+from world.camera import project
 from world.types import Camera
 
 _TRACK_COLOURS = np.array([[255, 64, 64], [64, 200, 255], [255, 220, 0], [120, 255, 120], [255, 128, 255],
@@ -61,7 +62,6 @@ def draw_text(image: np.ndarray, text: str, x: int, y: int, colour: np.ndarray, 
 
 def overlay(frame: np.ndarray, instance: np.ndarray, lifted: list[LiftedTrack], frame_index: int, camera: Camera) -> np.ndarray:
     """Frame with each track's fitted silhouette tinted and outlined, labelled 'id colour shape material'."""
-    from perception.geometry import project
 
     out = frame.copy()
     for track in lifted:

@@ -1,6 +1,7 @@
-"""Camera geometry for perception: rays, plane back-projection, primitive silhouettes.
+"""Camera geometry for perception: pixel/metre Jacobian and primitive silhouettes.
 
-Pure numpy. Conventions as world.types.Camera: OpenCV pinhole (x right,
+Pure numpy; projection, rays and plane back-projection are world.camera's (one
+owner of the pinhole model). Conventions as world.types.Camera: OpenCV pinhole (x right,
 y down, z forward), ``rotation`` maps camera-frame vectors to the world,
 pixel centres at integer coordinates. World z is up, the floor is z = 0.
 """
@@ -12,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from world.camera import backproject_to_height, pixel_rays, project  # the one owner of the pinhole model
 from world.types import Camera
 
 
@@ -31,36 +33,6 @@ class Box2D:
     @property
     def shape(self) -> tuple[int, int]:
         return (max(self.bottom - self.top, 0), max(self.right - self.left, 0))
-
-
-def project(camera: Camera, points: np.ndarray) -> np.ndarray:
-    """(..., 3) world points, metres -> (..., 2) pixels (u, v); NaN behind the camera."""
-    points = np.asarray(points, dtype=float)
-    rotation = np.asarray(camera.rotation)
-    cam = (points - np.asarray(camera.position)) @ rotation
-    depth = np.where(cam[..., 2] > 1e-9, cam[..., 2], np.nan)
-    return np.stack([camera.fx * cam[..., 0] / depth + camera.cx, camera.fy * cam[..., 1] / depth + camera.cy], axis=-1)
-
-
-def pixel_rays(camera: Camera, u: np.ndarray, v: np.ndarray) -> np.ndarray:
-    """World-frame (unnormalised) ray directions through pixels; u, v (...,) -> (..., 3)."""
-    rays_cam = np.stack([(np.asarray(u, float) - camera.cx) / camera.fx, (np.asarray(v, float) - camera.cy) / camera.fy,
-                         np.ones(np.shape(u))], axis=-1)
-    return rays_cam @ np.asarray(camera.rotation).T
-
-
-def backproject_to_height(camera: Camera, pixels: np.ndarray, height: float) -> np.ndarray:
-    """Intersect the rays of pixels (M, 2) with the plane z = height (metres); (M, 3) world points.
-
-    Rays that do not go down to the plane (horizon and above) give NaN.
-    """
-    pixels = np.asarray(pixels, dtype=float).reshape(-1, 2)
-    rays = pixel_rays(camera, pixels[:, 0], pixels[:, 1])
-    origin = np.asarray(camera.position)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        scale = (height - origin[2]) / rays[:, 2]
-    scale = np.where(scale > 0, scale, np.nan)
-    return origin + rays * scale[:, None]
 
 
 def ground_jacobian(camera: Camera, point: np.ndarray, step: float = 1e-3) -> np.ndarray:

@@ -105,13 +105,16 @@ def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 
                 ys, xs = (py + top).astype(np.int32), (px + left).astype(np.int32)
                 touches = bool(ys.min() == 0 or xs.min() == 0 or ys.max() == height - 1 or xs.max() == width - 1)
                 detections.append(Detection(frame_index, ys, xs, int(value), touches, component_id))
-    return FrameSegments(frame_index, labels, tuple(_absorb_small_neutral(detections, frame)))
+    return FrameSegments(frame_index, labels, tuple(_absorb_small_neutral(detections, frame, background)))
 
 
-HIGHLIGHT_BRIGHTNESS = 120.0  # mean grey level above which a small hue-less piece is a specular highlight
+# Mean brightness, relative to the floor under the piece (the video's own background), above which a
+# small hue-less piece is a specular highlight. Relative so that it holds under any light intensity:
+# on the default look it is the former fixed 120 grey levels over a floor of about 163.
+HIGHLIGHT_BRIGHTNESS = 0.74
 
 
-def _absorb_small_neutral(detections: list[Detection], frame: np.ndarray) -> list[Detection]:
+def _absorb_small_neutral(detections: list[Detection], frame: np.ndarray, background: Background) -> list[Detection]:
     """Merge small bright hue-less pieces (metal highlights) into the largest coloured segment of their component.
 
     Dark hue-less pieces are kept: they are the visible part of a grey object touching a coloured one.
@@ -121,7 +124,8 @@ def _absorb_small_neutral(detections: list[Detection], frame: np.ndarray) -> lis
     for det in detections:
         if det.hue_label == NEUTRAL:
             partners = [d for d in detections if d.component == det.component and d.hue_label != NEUTRAL]
-            bright = float(frame[det.ys, det.xs].mean()) >= HIGHLIGHT_BRIGHTNESS
+            floor = float(background.image[det.ys, det.xs].mean())
+            bright = float(frame[det.ys, det.xs].mean()) >= HIGHLIGHT_BRIGHTNESS * floor
             if partners and bright and det.area < 0.35 * max(p.area for p in partners):
                 absorbed.setdefault(det.component, []).append(det)
                 continue

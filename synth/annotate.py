@@ -12,11 +12,14 @@ import numpy as np
 from planner.program import EventRecord, ObjectRecord, ProgramScene
 from synth.masks import bbox_of, encode_mask
 from synth.mjcf import CONTACT_HALF_PERIOD, TIMESTEP, pair_restitution
-from synth.scene import GRAVITY, SceneSpec, camera_fovy_deg
+from synth.looks import look_document
+from synth.scene import GRAVITY, SceneSpec, camera_fovy_deg, camera_geometry
 from synth.simulate import DEBOUNCE_SECONDS, SimResult
 from world.types import Event
 
-GENERATOR_VERSION = "synth-1"
+MIN_SEEN_FRAMES = 5  # an object shown in fewer observed frames is not named in questions
+
+GENERATOR_VERSION = "synth-2"  # synth-2 adds ground_truth.look; synth-1 files are the default look
 
 
 def video_filename(index: int) -> str:
@@ -149,6 +152,7 @@ def ground_truth_document(spec: SceneSpec, sim: SimResult, counterfactuals: dict
             "pair_parameters": by_pair,
         },
         "camera": camera_document(spec),
+        "look": {**look_document(spec.look), "camera_geometry": {k: round(v, 4) for k, v in camera_geometry(spec.camera).items()}},
         "objects": objects,
         "trajectory": {"frame_ids": list(range(spec.horizon_frames)), "objects": trajectory_objects},
         "events": [event_document(e, spec.observed_frames) for e in sim.events],
@@ -203,6 +207,14 @@ def proposals_document(spec: SceneSpec, instance: np.ndarray) -> dict:
 
 
 # --- ground truth -> program scene (shared by the generator and the tests) ---
+
+
+def seen_object_ids(ground_truth: dict, min_frames: int = MIN_SEEN_FRAMES) -> frozenset[int]:
+    """Ids of the objects whose centre is in view in at least ``min_frames`` observed frames."""
+    observed = int(ground_truth["observed_frames"])
+    return frozenset(
+        int(o["object_id"]) for o in ground_truth["trajectory"]["objects"] if sum(bool(v) for v in o["inside_camera_view"][:observed]) >= min_frames
+    )
 
 
 def _event_record(row: dict) -> EventRecord:

@@ -1,6 +1,6 @@
 """``physmind synth``: generate a CLEVRER-style dataset; ``physmind synth contact-sheet``: look at it.
 
-    physmind synth --out DIR --scenes N --seed S [--start-index K] [--workers W]
+    physmind synth --out DIR --scenes N --seed S [--start-index K] [--workers W] [--looks default|tune|heldout]
     physmind synth contact-sheet DIR [--scenes 0,1,2] [--frames 0,40,80,127] [--png PATH]
 
 Heavy imports (MuJoCo, PyAV) happen inside the handlers.
@@ -25,6 +25,12 @@ def register(subparsers) -> None:
     parser.add_argument("--workers", type=int, default=1, help="worker processes (default 1)")
     parser.add_argument("--suite", choices=("clevrer", "physion"), default="clevrer",
                         help="clevrer (default) or physion: the five Physion++ categories, --scenes trials each")
+    parser.add_argument(
+        "--looks",
+        default="default",
+        help="appearance family: default (synth-1's look, the fixtures), tune (looks to tune perception on) "
+        "or heldout (disjoint looks to evaluate on); see synth/looks.py",
+    )
     parser.set_defaults(handler=run_generate)
     inner = parser.add_subparsers(dest="synth_command", metavar="{contact-sheet}")
     sheet = inner.add_parser("contact-sheet", help="tile frames of generated videos into one PNG")
@@ -45,11 +51,11 @@ def _int_list(text: str, name: str) -> list[int]:
     return values
 
 
-def _one_scene(job: tuple[str, int, int]):
+def _one_scene(job: tuple[str, int, int, str]):
     from synth.generate import generate_scene
 
-    out, seed, index = job
-    return generate_scene(Path(out), seed, index)
+    out, seed, index, looks = job
+    return generate_scene(Path(out), seed, index, looks)
 
 
 def run_generate(args: argparse.Namespace) -> int:
@@ -69,13 +75,17 @@ def run_generate(args: argparse.Namespace) -> int:
         raise ValueError(f"--workers: expected an integer >= 1, got {args.workers}")
     if args.seed < 0:
         raise ValueError(f"--seed: expected an integer >= 0, got {args.seed}")
+    from synth.looks import LOOK_FAMILIES
+
+    if args.looks not in LOOK_FAMILIES:
+        raise ValueError(f"--looks: expected one of {', '.join(LOOK_FAMILIES)}, got {args.looks!r}")
     import synth  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
     from tqdm import tqdm
 
     from synth.generate import write_questions
 
     args.out.mkdir(parents=True, exist_ok=True)
-    jobs = [(str(args.out), args.seed, index) for index in range(args.start_index, args.start_index + args.scenes)]
+    jobs = [(str(args.out), args.seed, index, args.looks) for index in range(args.start_index, args.start_index + args.scenes)]
     results = []
     with tqdm(total=len(jobs), desc="synth", unit="scene") as bar:
         if args.workers == 1:

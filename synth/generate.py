@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -14,11 +15,13 @@ from synth.annotate import (
     ground_truth_document,
     program_scene_from_ground_truth,
     proposals_document,
+    seen_object_ids,
     video_filename,
 )
+from synth.looks import look_seed_sequence, sample_look
 from synth.questions import scene_questions
 from synth.render import render_scene, write_mp4
-from synth.scene import SceneSpec, sample_scene
+from synth.scene import CAMERA_TARGET, SceneSpec, sample_scene
 from synth.simulate import SimResult, simulate
 
 MAX_ATTEMPTS = 40  # scene draws before settling for the best one
@@ -52,14 +55,31 @@ def _sane(sim: SimResult) -> bool:
     return bool(speed.max() < MAX_SANE_SPEED and sim.positions[..., 2].max() < MAX_SANE_HEIGHT)
 
 
-def sample_accepted_scene(seed: int, index: int) -> tuple[SceneSpec, SimResult, int]:
-    """Draw scenes from the (seed, index) stream until one shows enough collisions."""
+def scene_draws(seed: int, index: int, looks: str = "default") -> tuple[int, int, Iterator[SceneSpec]]:
+    """The (seed, index) stream: observed and future collisions a scene needs, and its scene draws.
+
+    ``looks`` is the look family (synth.looks); the look is drawn once, from its
+    own stream, and kept across the re-draws. The default look's scenes use
+    exactly synth-1's stream.
+    """
+    look = sample_look(np.random.default_rng(look_seed_sequence(seed, index, looks)), looks, CAMERA_TARGET)
     rng = np.random.default_rng(np.random.SeedSequence([seed, index]))
     needed = 2 if rng.uniform() < SHARE_NEEDING_TWO_COLLISIONS else 1
     needed_future = 1 if rng.uniform() < SHARE_NEEDING_FUTURE_COLLISION else 0
+
+    def draws() -> Iterator[SceneSpec]:
+        while True:
+            yield sample_scene(rng, index, look)
+
+    return needed, needed_future, draws()
+
+
+def sample_accepted_scene(seed: int, index: int, looks: str = "default") -> tuple[SceneSpec, SimResult, int]:
+    """Draw scenes (see scene_draws) until one shows enough collisions."""
+    needed, needed_future, draws = scene_draws(seed, index, looks)
     best: tuple[tuple[int, int], SceneSpec, SimResult, int] | None = None
     for attempt in range(1, MAX_ATTEMPTS + 1):
-        spec = sample_scene(rng, index)
+        spec = next(draws)
         sim = simulate(spec)
         if not _sane(sim):
             continue
@@ -81,25 +101,25 @@ def _dump(path: Path, document: dict, indent: int | None = None) -> None:
     path.write_text(json.dumps(document, indent=indent, separators=separators, ensure_ascii=False) + "\n")
 
 
-def generate_scene(out: Path, seed: int, index: int) -> tuple[dict, SceneStats]:
-    """Write the video, annotation, ground truth and masks of scene ``index``.
+def generate_scene(out: Path, seed: int, index: int, looks: str = "default") -> tuple[dict, SceneStats]:
+    """Write the video, annotation, ground truth and masks of scene ``index``
+    with a look of family ``looks`` (synth.looks.LOOK_FAMILIES).
 
     Returns the scene's questions.json entry and its statistics.
     """
     start = time.perf_counter()
-    spec, sim, attempts = sample_accepted_scene(seed, index)
+    spec, sim, attempts = sample_accepted_scene(seed, index, looks)
     counterfactuals = {o.object_id: simulate(spec, removed=o.object_id) for o in spec.objects}
     ground_truth = ground_truth_document(spec, sim, counterfactuals, seed, attempts)
     annotation = annotation_document(spec, sim)
     rgb, instance = render_scene(spec, sim)
-    write_mp4(out / "videos" / video_filename(index), rgb, spec.fps)
+    write_mp4(out / "videos" / video_filename(index), rgb, spec.fps, spec.look.crf)
     _dump(out / "annotations" / f"annotation_{index:05d}.json", annotation)
     _dump(out / "ground_truth" / f"scene_{index:05d}.json", ground_truth)
     _dump(out / "masks" / f"proposal_{index:05d}.json", proposals_document(spec, instance))
 
-    question_rng = np.random.default_rng(np.random.SeedSequence([seed, index, 1]))
-    questions = scene_questions(program_scene_from_ground_truth(ground_truth), question_rng)
-    entry = {"scene_index": index, "video_filename": video_filename(index), "questions": questions}
+    entry = questions_entry(ground_truth, seed, index)
+    questions = entry["questions"]
 
     by_type: dict[str, int] = {}
     for q in questions:
@@ -120,6 +140,13 @@ def generate_scene(out: Path, seed: int, index: int) -> tuple[dict, SceneStats]:
         seconds=time.perf_counter() - start,
     )
     return entry, stats
+
+
+def questions_entry(ground_truth: dict, seed: int, index: int) -> dict:
+    """Scene ``index``'s questions.json entry, from its ground truth (stream [seed, index, 1])."""
+    question_rng = np.random.default_rng(np.random.SeedSequence([seed, index, 1]))
+    questions = scene_questions(program_scene_from_ground_truth(ground_truth), question_rng, seen_object_ids(ground_truth))
+    return {"scene_index": index, "video_filename": video_filename(index), "questions": questions}
 
 
 def write_questions(out: Path, entries: list[dict]) -> Path:

@@ -25,6 +25,9 @@ import math
 from dataclasses import dataclass
 from xml.sax.saxutils import quoteattr
 
+import numpy as np
+
+from synth.looks import CLEVRER_FLOOR_FILE, FloorLook, Look, LightLook, clevrer_floor_png
 from synth.scene import COLOR_RGB, ObjectSpec, SceneSpec, camera_fovy_deg
 
 TIMESTEP = 0.002  # s; 20 physics steps per 25 fps frame
@@ -62,10 +65,12 @@ def pair_restitution(a: ObjectSpec, b: ObjectSpec) -> float:
 
 @dataclass(frozen=True)
 class BuiltModel:
-    """The XML text plus the object ids in body order (body k is ``object_ids[k]``)."""
+    """The XML text plus the object ids in body order (body k is ``object_ids[k]``)
+    and the files the XML names (``assets``: file name -> bytes, for MuJoCo)."""
 
     xml: str
     object_ids: tuple[int, ...]
+    assets: dict[str, bytes] | None = None
 
 
 def _fmt(values) -> str:
@@ -102,12 +107,108 @@ def _materials() -> str:
     return "\n    ".join(rows)
 
 
+# The default look's floor, lights and head light (synth-1; the fixtures were rendered with these).
+DEFAULT_FLOOR = '<material name="floor" rgba="0.52 0.52 0.53 1" specular="0.08" shininess="0.1"/>'
+DEFAULT_LIGHTS = """<light name="key" directional="true" pos="-3 -4 8" dir="0.35 0.45 -1" diffuse="0.55 0.55 0.55" specular="0.6 0.6 0.6" castshadow="true"/>
+    <light name="fill" directional="true" pos="4 -2 6" dir="-0.4 0.3 -1" diffuse="0.18 0.18 0.18" specular="0.25 0.25 0.25" castshadow="false"/>
+    <light name="rim" directional="true" pos="0 6 6" dir="0 -0.75 -0.66" diffuse="0.06 0.06 0.06" specular="0.4 0.4 0.4" castshadow="false"/>"""
+DEFAULT_HEADLIGHT_AMBIENT = 0.32
+DEFAULT_SHADOW_SIZE = 2048
+# Shadow map resolution (texels) per shadow style; "none" casts no shadow.
+SHADOW_SIZE = {"hard": 4096, "soft": 1024, "none": DEFAULT_SHADOW_SIZE}
+SOFT_KEY_LIGHTS = 4  # lights making one soft key light
+SOFT_KEY_SPREAD_DEG = 3.0  # angular radius of that ring of lights
+# Shadow frustum of directional lights, in model extents (MuJoCo's map
+# shadowclip, default 1): wide enough that the far floor of the looks' cameras
+# is inside it (outside, MuJoCo's shadow lookup speckles the floor).
+LOOK_SHADOW_CLIP = 4.0
+SPECKLE_SHARE = 0.35  # share of floor texels in the second colour
+
+
+def _floor_asset(floor: FloorLook) -> str:
+    """Floor texture and material; texuniform repeats the texture every ``floor.tile`` m."""
+    repeat = _fmt([1.0 / floor.tile, 1.0 / floor.tile])
+    material = f'specular="{floor.specular:.9g}" shininess="0.1"'
+    if floor.texture == "flat":
+        return f'<material name="floor" rgba="{_fmt([*floor.rgb, 1.0])}" {material}/>'
+    if floor.texture == "checker":
+        texture = f'<texture name="floor_tex" type="2d" builtin="checker" rgb1="{_fmt(floor.rgb)}" rgb2="{_fmt(floor.rgb2)}" width="64" height="64"/>'
+    elif floor.texture == "speckle":
+        texture = (
+            f'<texture name="floor_tex" type="2d" builtin="flat" rgb1="{_fmt(floor.rgb)}" mark="random" random="{SPECKLE_SHARE}" '
+            f'markrgb="{_fmt(floor.rgb2)}" width="96" height="96"/>'
+        )
+    else:  # the CLEVRER floor image, stretched over one tile
+        texture = f'<texture name="floor_tex" type="2d" file="{CLEVRER_FLOOR_FILE}"/>'
+    return f'{texture}\n    <material name="floor" texture="floor_tex" texrepeat="{repeat}" texuniform="true" rgba="1 1 1 1" {material}/>'
+
+
+def _light_elements(light: LightLook) -> str:
+    """Key light from the look, a fill light opposite it and a faint rim light.
+
+    Soft shadows: MuJoCo's directional lights cast hard-edged shadows, so a
+    soft key light is SOFT_KEY_SPREAD_DEG-wide ring of SOFT_KEY_LIGHTS lights
+    sharing the intensity; their overlapping shadows grade the penumbra.
+    """
+    diffuse = np.array([light.intensity * t for t in light.tint])
+    if light.shadows == "soft":
+        keys = [
+            (light.azimuth_deg + SOFT_KEY_SPREAD_DEG * math.cos(a) / max(math.cos(math.radians(light.elevation_deg)), 0.2),
+             light.elevation_deg + SOFT_KEY_SPREAD_DEG * math.sin(a))
+            for a in np.linspace(0.0, 2.0 * math.pi, SOFT_KEY_LIGHTS, endpoint=False)
+        ]
+    else:
+        keys = [(light.azimuth_deg, light.elevation_deg)]
+    shadow = "true" if light.shadows != "none" else "false"
+    rows = []
+    for k, (azimuth, elevation) in enumerate(keys):
+        direction = LightLook(azimuth, min(elevation, 89.0), light.intensity, light.tint, light.ambient, light.shadows).direction
+        rows.append(
+            f'<light name="key{k}" directional="true" pos="{_fmt([-8.0 * v for v in direction])}" dir="{_fmt(direction)}" '
+            f'diffuse="{_fmt(diffuse / len(keys))}" specular="{_fmt([0.6 / len(keys)] * 3)}" castshadow="{shadow}"/>'
+        )
+    fill_az = math.radians(light.azimuth_deg + 180.0)
+    fill_dir = [-0.6 * math.cos(fill_az), -0.6 * math.sin(fill_az), -1.0]
+    rows.append(
+        f'<light name="fill" directional="true" pos="{_fmt([-6.0 * v for v in fill_dir])}" dir="{_fmt(fill_dir)}" '
+        f'diffuse="{_fmt(0.33 * diffuse)}" specular="0.25 0.25 0.25" castshadow="false"/>'
+    )
+    rows.append('<light name="rim" directional="true" pos="0 6 6" dir="0 -0.75 -0.66" diffuse="0.06 0.06 0.06" specular="0.4 0.4 0.4" castshadow="false"/>')
+    return "\n    ".join(rows)
+
+
+@dataclass(frozen=True)
+class _LookXml:
+    floor: str  # <texture>/<material> elements of the floor
+    lights: str  # <light> elements
+    ambient: float  # head-light ambient, 0..1
+    shadow_size: int  # shadow map texels
+    map_extra: str  # extra <map> attributes
+    assets: dict[str, bytes]  # files the XML names
+
+
+def _look_xml(look: Look) -> _LookXml:
+    """The MJCF pieces of a look; the default look gives synth-1's exact text."""
+    if look.floor is None or look.light is None:
+        return _LookXml(DEFAULT_FLOOR, DEFAULT_LIGHTS, DEFAULT_HEADLIGHT_AMBIENT, DEFAULT_SHADOW_SIZE, "", {})
+    assets = {CLEVRER_FLOOR_FILE: clevrer_floor_png()} if look.floor.texture == "clevrer" else {}
+    return _LookXml(
+        _floor_asset(look.floor),
+        _light_elements(look.light),
+        look.light.ambient,
+        SHADOW_SIZE[look.light.shadows],
+        f' shadowclip="{LOOK_SHADOW_CLIP:.9g}"',
+        assets,
+    )
+
+
 def build_mjcf(spec: SceneSpec, removed: int | None = None) -> BuiltModel:
     """MJCF text of the scene; ``removed`` drops that object from the start (counterfactual)."""
     objects = [o for o in spec.objects if o.object_id != removed]
     if removed is not None and len(objects) == len(spec.objects):
         raise ValueError(f"removed: no object with id {removed!r} in scene {spec.scene_index}")
     cam = spec.camera
+    look = _look_xml(spec.look)
     # MuJoCo cameras look along their -z axis with +y up: x = OpenCV x, y = -OpenCV y.
     rot = cam.rotation
     x_axis = [rot[0][0], rot[1][0], rot[2][0]]
@@ -144,18 +245,16 @@ def build_mjcf(spec: SceneSpec, removed: int | None = None) -> BuiltModel:
   <option timestep="{TIMESTEP}" integrator="implicitfast" cone="elliptic" gravity="0 0 -9.81"/>
   <visual>
     <global offwidth="{cam.width}" offheight="{cam.height}"/>
-    <quality shadowsize="2048" offsamples="4"/>
-    <headlight ambient="0.32 0.32 0.32" diffuse="0.25 0.25 0.25" specular="0.1 0.1 0.1"/>
-    <map znear="0.05" zfar="60"/>
+    <quality shadowsize="{look.shadow_size}" offsamples="4"/>
+    <headlight ambient="{_fmt([look.ambient] * 3)}" diffuse="0.25 0.25 0.25" specular="0.1 0.1 0.1"/>
+    <map znear="0.05" zfar="60"{look.map_extra}/>
   </visual>
   <asset>
-    <material name="floor" rgba="0.52 0.52 0.53 1" specular="0.08" shininess="0.1"/>
+    {look.floor}
     {_materials()}
   </asset>
   <worldbody>
-    <light name="key" directional="true" pos="-3 -4 8" dir="0.35 0.45 -1" diffuse="0.55 0.55 0.55" specular="0.6 0.6 0.6" castshadow="true"/>
-    <light name="fill" directional="true" pos="4 -2 6" dir="-0.4 0.3 -1" diffuse="0.18 0.18 0.18" specular="0.25 0.25 0.25" castshadow="false"/>
-    <light name="rim" directional="true" pos="0 6 6" dir="0 -0.75 -0.66" diffuse="0.06 0.06 0.06" specular="0.4 0.4 0.4" castshadow="false"/>
+    {look.lights}
     <geom name="floor" type="plane" size="0 0 0.05" material="floor" friction="{FLOOR_FRICTION} 0 0" contype="0" conaffinity="0"/>
     <camera name="main" pos="{_fmt(cam.position)}" xyaxes="{_fmt(x_axis + y_axis)}" fovy="{camera_fovy_deg(cam):.9g}"/>
     {chr(10).join('    ' + b for b in bodies).strip()}
@@ -165,4 +264,4 @@ def build_mjcf(spec: SceneSpec, removed: int | None = None) -> BuiltModel:
   </contact>
 </mujoco>
 """
-    return BuiltModel(xml=xml, object_ids=tuple(o.object_id for o in objects))
+    return BuiltModel(xml=xml, object_ids=tuple(o.object_id for o in objects), assets=look.assets)

@@ -17,6 +17,10 @@ Programs (A, B: object sub-programs ``objects <attr> filter_<attr> ... unique``)
 * predictive: ``unseen_events belong_to``; choices
   ``all_events A filter_collision B filter_collision unique``.
 * counterfactual: ``A counterfact_events belong_to [negate]``; choices as predictive.
+
+No question or option names an object never seen in the video (``seen``:
+objects that entered late, after the video, or never came into view stay
+out of every question; they still take part in the physics).
 """
 
 from __future__ import annotations
@@ -123,9 +127,15 @@ def _finish(question: dict, picked: list[tuple[dict, bool]], scene: ProgramScene
     return question
 
 
-def explanatory_questions(scene: ProgramScene, rng: np.random.Generator) -> list[dict]:
+def _seen_ids(scene: ProgramScene, seen: frozenset[int] | None) -> frozenset[int]:
+    """Objects a question may name: ``seen``, or every object when None."""
+    return frozenset(o.id for o in scene.objects) if seen is None else frozenset(seen)
+
+
+def explanatory_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None) -> list[dict]:
     name = _Namer(scene, rng)
-    observed = [e for e in scene.events if e.frame is not None and e.frame < scene.observed_frames]
+    visible = _seen_ids(scene, seen)
+    observed = [e for e in scene.events if e.frame is not None and e.frame < scene.observed_frames and set(e.objects) <= visible]
     collisions = [e for e in observed if e.kind == "collision"]
     targets = [e for e in observed if e.kind in ("collision", "out")]
     rng.shuffle(targets)
@@ -149,7 +159,7 @@ def explanatory_questions(scene: ProgramScene, rng: np.random.Generator) -> list
         positive = ["events", *event_program, "filter_ancestor", "belong_to"]
         candidates = []
         for obj in scene.objects:
-            if obj.id in target.objects:
+            if obj.id in target.objects or obj.id not in visible:
                 continue
             ref = name(obj.id)
             candidates.append({"choice": f"the presence of the {ref.phrase}", "program": list(ref.program)})
@@ -222,12 +232,14 @@ def _pair_choice(name: _Namer, rng: np.random.Generator, pair: tuple[int, int]) 
     return {"choice": f"The {a.phrase} collides with the {b.phrase}", "program": _collision_program(a, b, "all_events")}
 
 
-def predictive_questions(scene: ProgramScene, rng: np.random.Generator) -> list[dict]:
+def predictive_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None) -> list[dict]:
     name = _Namer(scene, rng)
     program = ["unseen_events", "belong_to"]
-    ids = sorted(o.id for o in scene.objects)
+    ids = sorted(_seen_ids(scene, seen))
     all_pairs = list(itertools.combinations(ids, 2))
-    future_pairs = sorted({e.objects for e in scene.events if e.kind == "collision" and e.frame is not None and e.frame >= scene.observed_frames})
+    future_pairs = sorted(
+        {e.objects for e in scene.events if e.kind == "collision" and e.frame is not None and e.frame >= scene.observed_frames and set(e.objects) <= set(ids)}
+    )
     other_pairs = [p for p in all_pairs if p not in future_pairs]
     questions = []
     for pair in [future_pairs[i] for i in rng.permutation(len(future_pairs))][:MAX_PREDICTIVE]:
@@ -245,13 +257,13 @@ def predictive_questions(scene: ProgramScene, rng: np.random.Generator) -> list[
     return questions
 
 
-def counterfactual_questions(scene: ProgramScene, rng: np.random.Generator) -> list[dict]:
+def counterfactual_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None) -> list[dict]:
     if scene.counterfactual is None:
         return []
     name = _Namer(scene, rng)
+    ids = sorted(_seen_ids(scene, seen))
     observed_collisions = [e for e in scene.events if e.kind == "collision" and e.frame is not None and e.frame < scene.observed_frames]
-    involved = sorted({i for e in observed_collisions for i in e.objects})
-    ids = sorted(o.id for o in scene.objects)
+    involved = sorted({i for e in observed_collisions for i in e.objects} & set(ids))
     questions = []
     for removed in [involved[i] for i in rng.permutation(len(involved))][:MAX_COUNTERFACTUAL]:
         ref = name(removed)
@@ -278,9 +290,13 @@ def counterfactual_questions(scene: ProgramScene, rng: np.random.Generator) -> l
     return questions
 
 
-def scene_questions(scene: ProgramScene, rng: np.random.Generator) -> list[dict]:
-    """All questions of one scene, numbered in CLEVRER's order of types."""
-    questions = explanatory_questions(scene, rng) + predictive_questions(scene, rng) + counterfactual_questions(scene, rng)
+def scene_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None) -> list[dict]:
+    """All questions of one scene, numbered in CLEVRER's order of types.
+
+    ``seen``: ids of the objects seen in the video (synth.annotate.seen_object_ids);
+    only they are named. None: every object (hand-made scenes of tests).
+    """
+    questions = explanatory_questions(scene, rng, seen) + predictive_questions(scene, rng, seen) + counterfactual_questions(scene, rng, seen)
     out = []
     for k, q in enumerate(questions):
         out.append({"question_id": k, "question_type": q["question_type"], "question": q["question"], "program": q["program"], "choices": q["choices"]})

@@ -57,11 +57,12 @@ def render_scene(spec: SceneSpec, sim: SimResult, frames: int | None = None) -> 
     return rgb, instance
 
 
-def write_mp4(path: Path, frames: np.ndarray, fps: float) -> None:
+def write_mp4(path: Path, frames: np.ndarray, fps: float, crf: int = 18) -> None:
     """Encode (F, H, W, 3) uint8 frames as h264 (yuv420p) with PyAV.
 
     Single-threaded x264 with fixed settings so the same frames give the
-    same decoded video.
+    same decoded video; ``crf`` is x264's constant rate factor (higher =
+    stronger compression; the default look uses 18).
     """
     import av
 
@@ -71,7 +72,7 @@ def write_mp4(path: Path, frames: np.ndarray, fps: float) -> None:
         stream.width = frames.shape[2]
         stream.height = frames.shape[1]
         stream.pix_fmt = "yuv420p"
-        stream.options = {"crf": "18", "preset": "medium", "threads": "1"}
+        stream.options = {"crf": str(int(crf)), "preset": "medium", "threads": "1"}
         stream.thread_count = 1
         for image in frames:
             packet = stream.encode(av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24"))

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from synth.looks import DEFAULT_LOOK, CameraLook, Look
 from world.types import COLORS, MATERIALS, SHAPE_KINDS, Camera
 
 # --- fixed scene constants -------------------------------------------------
@@ -112,7 +113,7 @@ class ObjectSpec:
 
 @dataclass(frozen=True)
 class SceneSpec:
-    """A full scene: camera + objects; ``scene_index`` names its files."""
+    """A full scene: camera + objects + look; ``scene_index`` names its files."""
 
     scene_index: int
     camera: Camera
@@ -120,6 +121,7 @@ class SceneSpec:
     fps: float = FPS
     observed_frames: int = OBSERVED_FRAMES
     future_frames: int = FUTURE_FRAMES
+    look: Look = DEFAULT_LOOK
 
     @property
     def horizon_frames(self) -> int:
@@ -204,15 +206,43 @@ def backproject_to_height(camera: Camera, pixels: np.ndarray, height: float) -> 
     return origin + rays * scale[:, None]
 
 
+def camera_from_pose(distance: float, tilt_deg: float, yaw_deg: float, fovy_deg: float, target: np.ndarray) -> Camera:
+    """Camera ``distance`` m from the floor point ``target`` (3,), ``tilt_deg`` below
+    the horizon, on the -y side turned by ``yaw_deg`` about +z, looking at ``target``."""
+    pitch, yaw = math.radians(tilt_deg), math.radians(yaw_deg)
+    offset = distance * np.array([math.sin(yaw) * math.cos(pitch), -math.cos(yaw) * math.cos(pitch), math.sin(pitch)])
+    return camera_look_at(np.asarray(target, dtype=float) + offset, np.asarray(target, dtype=float), fovy_deg)
+
+
 def sample_camera(rng: np.random.Generator) -> Camera:
-    """A CLEVRER-like camera: about 45 degrees down, a few degrees and centimetres of jitter."""
-    pitch = math.radians(rng.uniform(*CAMERA_PITCH_DEG))
-    yaw = math.radians(rng.uniform(*CAMERA_YAW_DEG))
+    """A CLEVRER-like camera (the default look): about 45 degrees down, a few degrees and centimetres of jitter."""
+    pitch = rng.uniform(*CAMERA_PITCH_DEG)
+    yaw = rng.uniform(*CAMERA_YAW_DEG)
     distance = rng.uniform(*CAMERA_DISTANCE)
     target = np.array(CAMERA_TARGET) + np.array([rng.uniform(-0.15, 0.15), rng.uniform(-0.15, 0.15), 0.0])
-    # The camera sits on the -y side, looking towards +y and down.
-    offset = distance * np.array([math.sin(yaw) * math.cos(pitch), -math.cos(yaw) * math.cos(pitch), math.sin(pitch)])
-    return camera_look_at(target + offset, target, CAMERA_FOVY_DEG)
+    return camera_from_pose(distance, pitch, yaw, CAMERA_FOVY_DEG, target)
+
+
+def look_camera(camera: CameraLook) -> Camera:
+    """The camera a (non-default) look fixes."""
+    return camera_from_pose(camera.distance, camera.tilt_deg, camera.yaw_deg, camera.fovy_deg, np.array(camera.target))
+
+
+def camera_geometry(camera: Camera) -> dict[str, float]:
+    """Height (m), tilt below the horizon (deg), distance along the optical axis
+    to the floor (m), vertical fov (deg) and the pixel height of a 0.4 m object
+    on the floor at the image centre: what a look's camera amounts to."""
+    forward = np.asarray(camera.rotation)[:, 2]
+    height = float(camera.position[2])
+    tilt = math.degrees(math.asin(-forward[2]))
+    distance = height / max(float(-forward[2]), 1e-9)
+    return {
+        "height": height,
+        "tilt_deg": tilt,
+        "distance": distance,
+        "fovy_deg": camera_fovy_deg(camera),
+        "object_pixels": 2.0 * OBJECT_HALF_SIZE * camera.fy / distance,
+    }
 
 
 # --- object sampling ---------------------------------------------------------
@@ -255,6 +285,18 @@ def _sample_inside_points(rng: np.random.Generator, camera: Camera, count: int) 
     return backproject_to_height(camera, np.stack([u, v], axis=1), OBJECT_HALF_SIZE)
 
 
+def _sample_edge_point(rng: np.random.Generator, camera: Camera) -> np.ndarray:
+    """(3,) floor point whose object is partly out of view: its centre lies
+    within 5 % of the image's left, right or bottom edge (still inside)."""
+    side = int(rng.integers(3))
+    if side == 2:
+        u, v = rng.uniform(0.2, 0.8) * camera.width, rng.uniform(0.95, 0.995) * camera.height
+    else:
+        u = (rng.uniform(0.005, 0.05) if side == 0 else rng.uniform(0.95, 0.995)) * camera.width
+        v = rng.uniform(0.35, 0.9) * camera.height
+    return backproject_to_height(camera, np.array([[u, v]]), OBJECT_HALF_SIZE)[0]
+
+
 def _launch_speed(rng: np.random.Generator, distance: float, decel: float) -> float:
     """Speed (m/s) that carries an object over ``distance`` m and leaves it 0.5-1.2 m/s there."""
     arrival = rng.uniform(0.5, 1.2)
@@ -273,15 +315,18 @@ def _distinct_attributes(rng: np.random.Generator, count: int) -> list[tuple[str
     return chosen
 
 
-def sample_scene(rng: np.random.Generator, scene_index: int) -> SceneSpec:
-    """Draw one scene: camera, 3-6 objects; some rest, some move in view, some enter from outside.
+def sample_scene(rng: np.random.Generator, scene_index: int, look: Look = DEFAULT_LOOK) -> SceneSpec:
+    """Draw one scene: camera, objects (3-6 for the default look, else the
+    look's count); some rest, some move in view, some enter from outside.
 
     Moving objects are aimed (with a few degrees of noise) at another object
     so that collision chains are likely; the caller re-draws scenes whose
-    simulated collisions are too few (see synth.generate).
+    simulated collisions are too few (see synth.generate). The default look
+    draws its camera here (synth-1's stream, so its scenes are unchanged);
+    other looks fix the camera and may place objects partly out of view.
     """
-    camera = sample_camera(rng)
-    count = int(rng.integers(3, 7))
+    camera = sample_camera(rng) if look.camera is None else look_camera(look.camera)
+    count = int(rng.integers(look.object_count[0], look.object_count[1] + 1))
     attributes = _distinct_attributes(rng, count)
     n_enter = int(rng.choice([0, 1, 1, 2, 2]))
     n_enter = min(n_enter, count - 2)
@@ -295,8 +340,9 @@ def sample_scene(rng: np.random.Generator, scene_index: int) -> SceneSpec:
     positions = np.zeros((count, 3))
     placed: list[np.ndarray] = []
     for i in in_view:
+        at_edge = look.edge_share > 0 and rng.uniform() < look.edge_share
         for _ in range(200):
-            candidate = _sample_inside_points(rng, camera, 1)[0]
+            candidate = _sample_edge_point(rng, camera) if at_edge else _sample_inside_points(rng, camera, 1)[0]
             if all(np.linalg.norm(candidate[:2] - p[:2]) > 0.75 for p in placed):
                 break
         placed.append(candidate)
@@ -367,4 +413,4 @@ def sample_scene(rng: np.random.Generator, scene_index: int) -> SceneSpec:
         )
         for i in range(count)
     )
-    return SceneSpec(scene_index=scene_index, camera=camera, objects=objects)
+    return SceneSpec(scene_index=scene_index, camera=camera, objects=objects, look=look)

@@ -52,7 +52,7 @@ class SimResult:
 
 def load_model(spec: SceneSpec, removed: int | None = None) -> tuple[mujoco.MjModel, tuple[int, ...]]:
     built = build_mjcf(spec, removed)
-    return mujoco.MjModel.from_xml_string(built.xml), built.object_ids
+    return mujoco.MjModel.from_xml_string(built.xml, built.assets or None), built.object_ids
 
 
 def _launch(data: mujoco.MjData, k: int, obj: ObjectSpec) -> None:

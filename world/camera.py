@@ -48,6 +48,27 @@ def project_with_depth(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, 
     return np.stack([u, v], axis=-1), depth
 
 
+def pixel_rays(camera: Camera, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+    """World-frame (unnormalised) ray directions through pixels; u, v (...,) -> (..., 3)."""
+    rays_cam = np.stack([(np.asarray(u, float) - camera.cx) / camera.fx, (np.asarray(v, float) - camera.cy) / camera.fy,
+                         np.ones(np.shape(u))], axis=-1)
+    return rays_cam @ np.asarray(camera.rotation).T
+
+
+def backproject_to_height(camera: Camera, pixels: np.ndarray, height: float) -> np.ndarray:
+    """Intersect the rays of pixels (M, 2) with the plane z = height (metres); (M, 3) world points.
+
+    Rays that do not go down to the plane (horizon and above) give NaN.
+    """
+    pixels = np.asarray(pixels, dtype=float).reshape(-1, 2)
+    rays = pixel_rays(camera, pixels[:, 0], pixels[:, 1])
+    origin = np.asarray(camera.position)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        scale = (height - origin[2]) / rays[:, 2]
+    scale = np.where(scale > 0, scale, np.nan)
+    return origin + rays * scale[:, None]
+
+
 def footprint_outline(shape: Shape, positions: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     """Outline points of a body's footprint on the plane z = 0.
 

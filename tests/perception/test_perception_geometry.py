@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from perception.geometry import backproject_to_height, project, silhouette
+from perception.geometry import backproject_to_height, silhouette
+from world.camera import project
 from world.io import load_camera
 
 CAMERA = load_camera(Path(__file__).resolve().parents[1] / "data" / "synth" / "ground_truth" / "scene_00000.json")

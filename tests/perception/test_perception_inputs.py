@@ -1,4 +1,4 @@
-"""Bad input gives one clear error; a video without objects gives an empty, valid result."""
+"""Bad input (blank, static, truncated or object-less video, wrong camera) gives one clear error, never an empty world."""
 
 from __future__ import annotations
 
@@ -43,25 +43,75 @@ def floor_video(tmp_path_factory) -> Path:
     return path
 
 
-def test_video_without_objects_gives_empty_valid_observations(floor_video):
-    observations = perceive(floor_video, load_camera(TRUTH))
-    assert observations.objects == ()
-    assert observations.num_frames == 16
-    document = json.loads(json.dumps(observations.to_dict()))
-    assert document["objects"] == [] and document["num_frames"] == 16 and document["camera"]["fx"] > 0
+def test_video_without_objects_is_a_clear_error(floor_video):
+    with pytest.raises(ValueError, match="nothing moves"):
+        perceive(floor_video, load_camera(TRUTH))
 
 
-def test_cli_writes_observations_and_debug_sheet(floor_video, tmp_path):
+def test_black_video_is_a_clear_error(tmp_path):
+    path = tmp_path / "black.mp4"
+    _write_video(path, np.zeros((12, 320, 480, 3), np.uint8))
+    with pytest.raises(ValueError, match="blank"):
+        perceive(path, load_camera(TRUTH))
+
+
+def test_static_video_with_objects_is_a_clear_error(tmp_path):
+    frames, _ = read_video(DATA / "videos" / "video_00007.mp4", max_frames=1)
+    path = tmp_path / "still.mp4"
+    _write_video(path, np.repeat(frames, 12, axis=0))
+    with pytest.raises(ValueError, match="nothing moves"):
+        perceive(path, load_camera(TRUTH))
+
+
+def test_truncated_video_is_a_clear_error(tmp_path):
+    data = (DATA / "videos" / "video_00007.mp4").read_bytes()
+    path = tmp_path / "truncated.mp4"
+    path.write_bytes(data[: len(data) // 2])
+    with pytest.raises(ValueError, match="video"):
+        perceive(path, load_camera(TRUTH))
+
+
+def test_camera_that_does_not_see_the_floor_is_a_clear_error():
+    camera = load_camera(TRUTH)
+    upside = replace(camera, rotation=tuple(tuple(-x for x in row) if k == 2 else row for k, row in enumerate(camera.rotation)))
+    frames, _ = read_video(DATA / "videos" / "video_00007.mp4", max_frames=4)
+    from perception.pipeline import check_frames
+
+    with pytest.raises(ValueError, match="does not look down at the floor"):
+        check_frames(frames, upside)
+
+
+def test_cli_bad_input_is_one_line_and_exit_code_2(floor_video, tmp_path, capsys):
+    from physmind.cli import main
+
+    out = tmp_path / "obs.json"
+    assert main(["perceive", str(floor_video), "--camera", str(TRUTH), "-o", str(out), "--quiet"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "nothing moves" in err and "Traceback" not in err
+    assert not out.exists(), "no observations file for a video without objects"
+
+
+@pytest.fixture(scope="module")
+def short_clip(tmp_path_factory) -> Path:
+    """The first 40 frames of fixture scene 7 (an unseen-by-tuning scene)."""
+    frames, _ = read_video(DATA / "videos" / "video_00007.mp4", max_frames=40)
+    path = tmp_path_factory.mktemp("clip") / "clip.mp4"
+    _write_video(path, frames)
+    return path
+
+
+def test_cli_writes_observations_and_debug_sheet(short_clip, tmp_path):
     from perception.cli import register
 
+    truth = DATA / "ground_truth" / "scene_00007.json"
     parser = argparse.ArgumentParser()
     register(parser.add_subparsers())
     out = tmp_path / "obs.json"
-    args = parser.parse_args(["perceive", str(floor_video), "--camera", str(TRUTH), "-o", str(out),
+    args = parser.parse_args(["perceive", str(short_clip), "--camera", str(truth), "-o", str(out),
                               "--debug-dir", str(tmp_path / "dbg"), "--quiet"])
     assert args.handler(args) == 0
     document = json.loads(out.read_text())
-    assert document["objects"] == [] and document["camera"]["width"] == 480
+    assert document["num_frames"] == 40 and document["camera"]["width"] == 480 and len(document["objects"]) >= 1
     assert (tmp_path / "dbg" / "contact_sheet.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

@@ -10,7 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from planner.program import execute
 from physmind.cli import main
+from synth.annotate import program_scene_from_ground_truth, seen_object_ids
 from synth.render import read_mp4
 
 REPO = Path(__file__).resolve().parents[2]
@@ -46,6 +48,16 @@ def test_same_seed_gives_same_bytes_and_frames(tmp_path):
     assert (tmp_path / "sheet.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     entries = json.loads((first / "questions.json").read_text())
     assert [e["scene_index"] for e in entries] == [4]
+    # Questions name only objects seen in the video; the ground truth records the look.
+    gt = json.loads((first / "ground_truth" / "scene_00004.json").read_text())
+    scene, seen = program_scene_from_ground_truth(gt), seen_object_ids(gt)
+    for question in entries[0]["questions"]:
+        for program in [question["program"]] + [c["program"] for c in question["choices"]]:
+            starts = [k for k, token in enumerate(program) if token == "objects"]
+            for k in starts:
+                end = program.index("unique", k)
+                assert execute(program[k : end + 1], scene).id in seen
+    assert gt["look"]["family"] == "default" and gt["look"]["crf"] == 18
 
 
 @pytest.mark.parametrize(

@@ -54,3 +54,48 @@ def test_generated_answers_match_the_interpreter_and_types_appear():
         for choice in q["choices"]:
             expected = execute(choice["program"] + q["program"], scene)
             assert choice["answer"] == ("correct" if expected == "yes" else "wrong")
+
+
+def _named_objects(question: dict, scene: ProgramScene) -> set[int]:
+    """Ids of every object a question or its options name (each ``objects ... unique`` run on the scene)."""
+    named = set()
+    for program in [question["program"]] + [c["program"] for c in question["choices"]]:
+        start = None
+        for k, token in enumerate(program):
+            if token == "objects":
+                start = k
+            elif token == "unique" and start is not None:
+                named.add(execute(program[start : k + 1], scene).id)
+                start = None
+    return named
+
+
+def test_objects_never_seen_in_the_video_are_never_named():
+    """Object 4 is launched late and only shows up after the video; it collides with
+    1 after the video and its absence changes nothing observed."""
+    objects = (O(0, "red", "metal", "sphere"), O(1, "blue", "rubber", "cube"), O(2, "green", "rubber", "cylinder"), O(3, "yellow", "metal", "cube"), O(4, "purple", "metal", "sphere"))
+    C = lambda a, b, f: EventRecord("collision", (a, b), f)  # noqa: E731
+    events = (C(0, 1, 20), C(1, 2, 40), C(0, 3, 70), C(2, 3, 135), C(1, 4, 140), C(0, 4, 150))
+    counterfactual = {0: (C(1, 2, 50),), 1: (C(0, 3, 70), C(0, 2, 90)), 2: (C(0, 1, 20), C(0, 3, 70)), 3: (C(0, 1, 20), C(1, 2, 40)), 4: (C(0, 1, 20), C(1, 2, 40), C(0, 3, 70))}
+    scene = ProgramScene(objects=objects, events=events, observed_frames=128, counterfactual=lambda i: counterfactual[i])
+    unfiltered, filtered = set(), set()
+    kinds = set()
+    for seed in range(20):
+        for question in scene_questions(scene, np.random.default_rng(seed)):
+            unfiltered |= _named_objects(question, scene)
+        for question in scene_questions(scene, np.random.default_rng(seed), seen=frozenset({0, 1, 2, 3})):
+            filtered |= _named_objects(question, scene)
+            kinds.add(question["question_type"])
+            for choice in question["choices"]:  # answers still come from the interpreter on the full scene
+                assert choice["answer"] == ("correct" if execute(choice["program"] + question["program"], scene) == "yes" else "wrong")
+    assert 4 in unfiltered  # without the rule the late object is asked about
+    assert 4 not in filtered and filtered == {0, 1, 2, 3}
+    assert kinds == {"explanatory", "predictive", "counterfactual"}
+
+
+def test_seen_object_ids_counts_observed_frames_in_view():
+    from synth.annotate import seen_object_ids
+
+    views = {0: [True] * 10, 1: [False] * 7 + [True] * 3, 2: [False] * 5 + [True] * 5, 3: [False] * 10 + [True] * 5}
+    gt = {"observed_frames": 10, "trajectory": {"objects": [{"object_id": k, "inside_camera_view": v} for k, v in views.items()]}}
+    assert seen_object_ids(gt) == {0, 2}  # 1: 3 frames only; 3: in view only after the video

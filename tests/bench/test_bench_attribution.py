@@ -1,0 +1,147 @@
+"""bench/bench_attribution.py: each swap replaces exactly one perception output by the oracle's.
+
+A "perceived" scene is made from a fixture's oracle tracks with known damage
+(noise, wrong attributes, a fragmented and a late track, swapped labels);
+each swap must give back the oracle's value of its output and keep the damage
+elsewhere.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from bench.bench_attribution import (
+    Truth,
+    match_tracks,
+    relabel,
+    swap_attributes,
+    swap_entry_exit,
+    swap_identities,
+    swap_positions,
+    true_candidates,
+)
+from world.observations import Observations, default_shape
+
+DATA = Path(__file__).resolve().parents[2] / "tests" / "data" / "synth"
+SCENE = 0
+
+
+@pytest.fixture(scope="module")
+def scene():
+    document = json.loads((DATA / "ground_truth" / f"scene_{SCENE:05d}.json").read_text())
+    oracle = Observations.from_clevrer_annotation(DATA / "annotations" / f"annotation_{SCENE:05d}.json")
+    return Truth(document), oracle
+
+
+WRONG = {"color": "purple", "material": "metal", "shape": "cube"}
+
+
+def damaged(oracle: Observations, rng: np.random.Generator) -> tuple[Observations, dict[int, int]]:
+    """Noisy positions (3 cm), wrong attributes, labels 50+, object 0 split into two
+    tracks at frame 60, the last object's track starting 10 frames late.
+    Returns the damaged observations and the intended label -> object map."""
+    tracks, labels = [], {}
+    for k, track in enumerate(oracle.objects):
+        noisy = track.positions + np.concatenate([rng.normal(0, 0.03, (len(track.frames), 2)), np.zeros((len(track.frames), 1))], axis=1)
+        wrong = replace(track, positions=noisy, color=WRONG["color"] if track.color != WRONG["color"] else "gray",
+                        material="rubber" if track.material == "metal" else "metal",
+                        shape=default_shape("sphere" if track.shape.kind != "sphere" else "cube"))
+        if k == 0:
+            cut = 60
+            first = replace(wrong, id=50, frames=wrong.frames[:cut], positions=wrong.positions[:cut], yaw=wrong.yaw[:cut], visible=wrong.visible[:cut], weights=wrong.weights[:cut])
+            second = replace(wrong, id=90, frames=wrong.frames[cut:], positions=wrong.positions[cut:], yaw=wrong.yaw[cut:], visible=wrong.visible[cut:], weights=wrong.weights[cut:])
+            tracks += [first, second]
+            labels[50] = track.id
+        elif k == len(oracle.objects) - 1:
+            late = wrong.weights.copy()
+            late[np.flatnonzero(late > 0)[:10]] = 0.0
+            tracks.append(replace(wrong, id=50 + k, weights=late))
+            labels[50 + k] = track.id
+        else:
+            tracks.append(replace(wrong, id=50 + k))
+            labels[50 + k] = track.id
+    return replace(oracle, objects=tuple(tracks)), labels
+
+
+def test_tracks_are_matched_to_their_objects(scene):
+    truth, oracle = scene
+    perceived, labels = damaged(oracle, np.random.default_rng(0))
+    assignment = match_tracks(perceived, truth)
+    for label, object_id in labels.items():
+        assert assignment[label] == object_id
+    assert 90 not in assignment  # the second fragment: one track per object
+    renamed = relabel(perceived, assignment)
+    assert sorted(t.id for t in renamed.objects) == sorted([*labels.values(), 190])
+
+
+def test_swap_identities_regroups_fragments_and_keeps_perceived_positions(scene):
+    truth, oracle = scene
+    perceived, labels = damaged(oracle, np.random.default_rng(1))
+    swapped = swap_identities(perceived, truth)
+    oracle_by_id = {t.id: t for t in oracle.objects}
+    assert sorted(t.id for t in swapped.objects) == sorted(oracle_by_id)  # one track per object, fragments joined
+    first = next(t for t in swapped.objects if t.id == labels[50])
+    seen = oracle_by_id[labels[50]]
+    assert set(first.frames.tolist()) == set(seen.frames[seen.observed].tolist())
+    # positions are still the perceived (noisy) ones, attributes the perceived ones
+    assert np.abs(first.positions[:, :2] - seen.positions[np.isin(seen.frames, first.frames), :2]).max() > 0.01
+    assert first.color == WRONG["color"] or first.color == "gray"
+
+
+def test_swap_positions_gives_the_true_positions_only(scene):
+    truth, oracle = scene
+    perceived, labels = damaged(oracle, np.random.default_rng(2))
+    renamed = relabel(perceived, match_tracks(perceived, truth))
+    swapped = swap_positions(renamed, truth)
+    oracle_by_id = {t.id: t for t in oracle.objects}
+    for track in swapped.objects:
+        object_id = track.id if track.id < 100 else labels[50]
+        reference = oracle_by_id[object_id]
+        used = track.observed
+        rows = np.searchsorted(reference.frames, track.frames[used])
+        assert np.abs(track.positions[used, :2] - reference.positions[rows, :2]).max() < 1e-9
+        assert track.color != next(t for t in oracle.objects if t.id == object_id).color or track.color == "gray"
+
+
+def test_swap_attributes_gives_the_true_attributes_only(scene):
+    truth, oracle = scene
+    perceived, labels = damaged(oracle, np.random.default_rng(3))
+    assignment = match_tracks(perceived, truth)
+    renamed = relabel(perceived, assignment)
+    ids = {t.id: t.id for t in renamed.objects if t.id < 100}
+    swapped = swap_attributes(renamed, truth, ids)
+    for track in swapped.objects:
+        if track.id >= 100:
+            continue
+        color, material, shape = truth.attributes[track.id]
+        assert (track.color, track.material, track.shape.kind) == (color, material, shape)
+        original = next(t for t in renamed.objects if t.id == track.id)
+        assert np.array_equal(track.positions, original.positions)
+
+
+def test_swap_entry_exit_covers_exactly_the_frames_in_view(scene):
+    truth, oracle = scene
+    perceived, labels = damaged(oracle, np.random.default_rng(4))
+    renamed = relabel(perceived, match_tracks(perceived, truth))
+    ids = {t.id: t.id for t in renamed.objects if t.id < 100}
+    swapped = swap_entry_exit(renamed, truth, ids)
+    for track in swapped.objects:
+        if track.id >= 100:
+            continue
+        k = truth.ids.index(track.id)
+        assert track.frames.tolist() == np.flatnonzero(truth.visible[:, k]).tolist()
+        assert np.all(track.weights > 0)
+
+
+def test_true_candidates_are_the_observed_collisions(scene):
+    truth, oracle = scene
+    assert truth.collisions, "fixture scene 0 has observed collisions"
+    candidates = true_candidates(oracle, truth)
+    assert sorted((c.bodies[0], c.bodies[1], c.frame) for c in candidates) == sorted(truth.collisions)
+    for c in candidates:
+        assert np.isclose(np.linalg.norm(c.normal), 1.0)

@@ -16,9 +16,10 @@ with the planner over the HTTP tools (as bench/bench_qa.py does):
   the object matched to the track;
 * swap positions (lifting): perceived tracks and frames with the true plane
   position and yaw of the object matched in that frame;
-* swap entry/exit: each matched track covers exactly the frames its object
-  is in view (perceived samples outside dropped, missing frames filled with
-  the true positions);
+* swap entry/exit: each matched track starts and ends when its object is in
+  view (perceived samples outside dropped; frames before the track's first
+  and after its last usable sample filled with the true positions; gaps
+  inside the track kept);
 * swap collisions: identification's candidate collisions (change points,
   world.identify.segments) replaced by the true observed collisions.
 
@@ -203,21 +204,28 @@ def swap_positions(perceived: Observations, truth: Truth) -> Observations:
 
 
 def swap_entry_exit(perceived: Observations, truth: Truth, assignment: dict[int, int]) -> Observations:
+    """Each matched track starts at its object's first in-view frame and ends at its last:
+    perceived samples outside the object's in-view frames are dropped, the frames
+    before the track's first usable sample and after its last are filled with
+    the true positions; gaps inside the track stay as perceived."""
     column = {object_id: k for k, object_id in enumerate(truth.ids)}
     tracks = []
     for track in perceived.objects:
         object_id = assignment.get(track.id)
-        if object_id is None:
+        if object_id is None or not track.observed.any():
             tracks.append(track)
             continue
         k = column[object_id]
         in_view = np.flatnonzero(truth.visible[:, k])
+        usable = track.frames[track.observed]
+        first, last = int(usable[0]), int(usable[-1])
         own = {int(f): i for i, f in enumerate(track.frames)}
         rows = []
         for frame in in_view:
             i = own.get(int(frame))
-            if i is not None and track.weights[i] > 0:
-                rows.append((int(frame), track.positions[i], float(track.yaw[i]), True, float(track.weights[i])))
+            if first <= frame <= last:
+                if i is not None:
+                    rows.append((int(frame), track.positions[i], float(track.yaw[i]), bool(track.visible[i]), float(track.weights[i])))
             else:
                 rows.append((int(frame), truth.positions[frame, k], float(truth.yaw[frame, k]), True, 1.0))
         if rows:

@@ -135,7 +135,11 @@ def test_swap_entry_exit_covers_exactly_the_frames_in_view(scene):
             continue
         k = truth.ids.index(track.id)
         assert track.frames.tolist() == np.flatnonzero(truth.visible[:, k]).tolist()
-        assert np.all(track.weights > 0)
+        assert np.all(track.weights > 0)  # the late track's first 10 frames are filled in
+    # A gap inside a track stays a gap.
+    holed = replace(renamed, objects=tuple(replace(t, weights=np.where(np.arange(len(t.frames)) == 40, 0.0, t.weights)) if t.id == truth.ids[1] else t for t in renamed.objects))
+    kept = next(t for t in swap_entry_exit(holed, truth, ids).objects if t.id == truth.ids[1])
+    assert kept.weights[np.searchsorted(kept.frames, 40)] == 0.0
 
 
 def test_true_candidates_are_the_observed_collisions(scene):

@@ -37,6 +37,14 @@ DEFAULT_RENDER_CACHE_BYTES = 64 * 1024 * 1024
 PANEL_WIDTHS = (160, 1280)  # inclusive bounds of the ``width`` query parameter, pixels
 
 router = APIRouter(tags=["render"])
+PLOT_PATH = "/v1/worlds/{world_id}/rollouts/{rollout_id}/plot.png"
+VIDEO_PATH = "/v1/worlds/{world_id}/rollouts/{rollout_id}/video.mp4"
+
+
+def picture_links(world_id: str, rollout_id: str) -> dict[str, str]:
+    """The server-relative URLs of a rollout's pictures, as the rollout endpoints list them."""
+    return {"plot_png": PLOT_PATH.format(world_id=world_id, rollout_id=rollout_id),
+            "video_mp4": VIDEO_PATH.format(world_id=world_id, rollout_id=rollout_id)}
 
 
 def _positive_int(name: str, default: int) -> int:
@@ -138,7 +146,7 @@ REFERENCE = Query(BASE_ROLLOUT_ID, max_length=64, description="rollout drawn bes
                                                                "equal to rollout_id for a single panel")
 
 
-@router.get("/v1/worlds/{world_id}/rollouts/{rollout_id}/plot.png", operation_id="rollout_plot", response_class=Response, responses=_responses("image/png"))
+@router.get(PLOT_PATH, operation_id="rollout_plot", response_class=Response, responses=_responses("image/png"))
 async def rollout_plot(request: Request, world_id: str, rollout_id: str, reference: str = REFERENCE,
                        frame: int | None = Query(None, ge=0, le=1_000_000, description="draw this frame (default: last frame, full trails)"),
                        width: int = Query(480, ge=PANEL_WIDTHS[0], le=PANEL_WIDTHS[1], description="panel width, pixels")) -> Response:
@@ -153,7 +161,7 @@ async def rollout_plot(request: Request, world_id: str, rollout_id: str, referen
     return _picture(data, status, "image/png")
 
 
-@router.get("/v1/worlds/{world_id}/rollouts/{rollout_id}/video.mp4", operation_id="rollout_video", response_class=Response, responses=_responses("video/mp4"))
+@router.get(VIDEO_PATH, operation_id="rollout_video", response_class=Response, responses=_responses("video/mp4"))
 async def rollout_video(request: Request, world_id: str, rollout_id: str, reference: str = REFERENCE) -> Response:
     """Top-down h264 replay of a rollout beside its reference, with a cursor on the event timeline."""
     from render.video import encode_mp4

@@ -10,6 +10,7 @@ from fastapi.responses import Response
 from server.contract import response_schema
 from server.errors import encoded_response, json_response
 from server.openapi_docs import responses
+from server.routes_render import picture_links
 from server.world_registry import pool_of, registry_of
 
 router = APIRouter(tags=["rollouts"])
@@ -22,7 +23,7 @@ def list_rollouts(request: Request, world_id: str) -> Response:
         raise registry.unknown_world(world_id)
     return json_response({"world_id": world_id, "rollouts": [
         {"rollout_id": r.rollout_id, "parent_id": r.parent_id, "created_at": r.created_at,
-         "horizon_frames": r.horizon_frames, "edits": r.edits}
+         "horizon_frames": r.horizon_frames, "edits": r.edits, "links": picture_links(world_id, r.rollout_id)}
         for r in registry.store.list_rollouts(world_id)
     ]})
 

@@ -18,6 +18,7 @@ from schemas import read_schema
 from server.costs import check_cost, request_cost, tool_call_cost
 from server.errors import parse_json
 from server.settings import Settings
+from server.routes_render import picture_links
 from server.store import SqliteStore, WorldGone
 from tools.common import boundaries, event_record
 from tools.errors import ToolError, echo, invalid_argument, json_pointer, limit_exceeded, not_found
@@ -184,6 +185,7 @@ class WorldRegistry:
             "object_ids": [int(b) for b in rollout.body_ids],
             "boundaries": boundaries(rollout),
             "events": [event_record(e, rollout.observed_frames) for e in rollout.events],
+            "links": picture_links(world_id, rollout_id),
         }
         if detail == "full":
             payload["rollout"] = self.store.rollout_document(world_id, rollout_id)

@@ -14,7 +14,7 @@ import numpy as np
 from world.types import Event, Rollout, World
 
 from tools.errors import invalid_argument
-from tools.footprint import footprint_gap
+from world.footprint import footprint_gap
 from tools.session import BASE_ROLLOUT_ID
 
 DECIMALS = 6

@@ -78,3 +78,15 @@ def test_viewer_static_files_are_served(client):
     assert "viewer.js" in page.text
     assert client.get("/viewer/viewer.js").status_code == 200
     assert client.get("/viewer/nope.js").json()["error"]["code"] == "route_not_found"
+
+
+def test_rollout_endpoints_point_to_their_pictures(client, world_id):
+    edited = client.post(f"/v1/worlds/{world_id}/tools/simulate_edit",
+                         json={"edit_type": "remove_object", "object_id": 1, "trajectory_detail": "summary"}).json()["rollout_id"]
+    detail = client.get(f"/v1/worlds/{world_id}/rollouts/{edited}").json()
+    listed = {row["rollout_id"]: row["links"] for row in client.get(f"/v1/worlds/{world_id}/rollouts").json()["rollouts"]}
+    assert listed[edited] == detail["links"]
+    for kind, url in detail["links"].items():
+        response = client.get(url)
+        assert response.status_code == 200, (kind, response.text[:200])
+        assert response.headers["content-type"] == {"plot_png": "image/png", "video_mp4": "video/mp4"}[kind]

@@ -1,6 +1,9 @@
 """Conservative footprint separation between two bodies, vectorised over frames.
 
-Used by ``check_contact`` / ``get_event_time`` only when a rollout emitted no
+The frame-by-frame counterpart of ``world.contacts.footprint_distance`` (the
+scalar, exact form the event search calls inside its root finding); the two
+are checked against each other in tests/world/test_footprint.py. Used by the
+``check_contact`` / ``get_event_time`` tools only when a rollout emitted no
 collision event for a pair: it detects sustained (resting or sliding) contact
 that the event search does not report. Horizontal footprints are circles
 (sphere, upright cylinder) or yaw-rotated squares (cube); vertical extents must

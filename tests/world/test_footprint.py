@@ -9,8 +9,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from tools.footprint import footprint_gap
-from world.types import Shape
+from world.contacts import footprint_distance
+from world.footprint import footprint_gap
+from world.rollout import footprint_of
+from world.types import Body, BodyState, Shape
 
 SPHERE = Shape("sphere", radius=0.2)
 CYLINDER = Shape("cylinder", radius=0.3, half_height=0.2)
@@ -90,3 +92,24 @@ def test_vectorised_over_frames_matches_single_frames():
     batch = footprint_gap(CUBE, pa, ya, SPHERE, pb, yb)
     single = [gap(CUBE, pa[i], ya[i], SPHERE, pb[i], yb[i]) for i in range(50)]
     np.testing.assert_allclose(batch, single, atol=1e-12)
+
+
+def _footprint(shape: Shape):
+    return footprint_of(Body(0, shape, BodyState((0.0, 0.0, shape.rest_height), (0.0, 0.0, 0.0))))
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.sampled_from(sorted(SHAPES)), st.sampled_from(sorted(SHAPES)),
+    st.floats(-1.0, 1.0), st.floats(-1.0, 1.0), st.floats(-math.pi, math.pi), st.floats(-math.pi, math.pi),
+)
+def test_the_frame_form_agrees_with_the_engines_exact_distance(name_a, name_b, dx, dy, yaw_a, yaw_b):
+    """One geometry, two forms: the vectorised gap equals world.contacts' exact distance when apart, and both say overlap together."""
+    a, b = SHAPES[name_a], SHAPES[name_b]
+    pa, pb = (0.0, 0.0, a.rest_height), (dx, dy, a.rest_height)  # same height: only the footprints decide
+    frame_gap = gap(a, pa, yaw_a, b, pb, yaw_b)
+    exact, _, _ = footprint_distance(_footprint(a), 0.0, 0.0, yaw_a, _footprint(b), dx, dy, yaw_b)
+    if exact > 1e-9:
+        assert frame_gap == pytest.approx(exact, abs=1e-9)
+    else:
+        assert frame_gap <= 1e-9

@@ -27,6 +27,7 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "world.identify.cli",
     "physmind.commands",
     "server.serve_cli",
+    "server.mcp_cli",
     "planner.cli",
 )
 

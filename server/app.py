@@ -34,13 +34,13 @@ from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from tools.common import boundaries, event_record
+from tools.listings import LISTING_FORMATS, tool_listing
 from tools.errors import ToolError, invalid_argument, json_pointer, limit_exceeded, not_found
 from tools.registry import (
     call_tool,
     get_tool,
     inline_refs,
     inline_tool_schema,
-    openai_tools,
     tool_registry,
     validation_error_to_tool_error,
 )
@@ -49,6 +49,7 @@ from world.types import Rollout
 
 from schemas import read_schema
 from server.logs import get_logger, now_ms
+from server.mcp import MCP_PATH, mount_mcp
 from server.settings import Settings
 from server.store import SqliteStore, WorldGone
 
@@ -311,7 +312,7 @@ class RequestMiddleware:
             self.logger.info("request", extra={"fields": fields})
 
     def _authorize(self, path: str, headers: dict[str, str]) -> ToolError | None:
-        if self._api_key is None or not path.startswith("/v1"):
+        if self._api_key is None or not path.startswith(("/v1", MCP_PATH)):
             return None
         given = headers.get("authorization", "")
         scheme, _, token = given.partition(" ")
@@ -429,8 +430,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         return json_response({"status": "ok", "version": API_VERSION, "tools": len(tool_registry())})
 
     @app.get("/v1/tools", tags=["tools"], responses=_responses(200))
-    def list_tools() -> Response:
-        return json_response({"tools": openai_tools()})
+    def list_tools(format: Literal[LISTING_FORMATS] = Query("openai", description="the tool-calling API to list the tools for")) -> Response:  # noqa: A002
+        return json_response({"format": format, "tools": tool_listing(format)})
 
     @app.get("/v1/tools/{tool_name}", tags=["tools"], responses=_responses(200))
     def describe_tool(tool_name: str) -> Response:
@@ -520,5 +521,6 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     # Any other name: 404 listing the tools (not in the OpenAPI spec: the routes above are the contract).
     app.add_api_route("/v1/worlds/{world_id}/tools/{tool_name}", make_tool_endpoint(None), methods=["POST"], include_in_schema=False)
 
+    mount_mcp(app, registry)
     app.add_middleware(RequestMiddleware, settings=settings)
     return app

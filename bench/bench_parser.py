@@ -25,7 +25,12 @@ if str(REPO) not in sys.path:
 from planner.cli import format_report  # noqa: E402
 from planner.parser import parse_question_file  # noqa: E402
 
-DEFAULT_INPUT = (REPO / ".." / "shared" / "clevrer" / "clevrer_explanatory_train_subset.json").resolve()
+# shared/ sits beside the checkout (CI's fresh clone) or at /work/shared (an engineer's worktree).
+DEFAULT_INPUT = next(
+    (path.resolve() for path in (REPO / ".." / "shared", Path("/work/shared"))
+     if (path / "clevrer" / "clevrer_explanatory_train_subset.json").is_file()),
+    (REPO / ".." / "shared").resolve(),
+) / "clevrer" / "clevrer_explanatory_train_subset.json"
 
 
 def bench_file(path: Path, repeats: int) -> int:

@@ -19,9 +19,11 @@ from typing import Any, Iterator
 
 from physmind.local_server import local_server
 from physmind.pipeline import build_world, build_worlds
-from planner.answer import render_answer
+from planner.answer import refuse_false_premise, render_answer
 from planner.client import ToolClient
 from planner.evaluate import evaluate, format_table, load_dataset
+from planner.grounding import objects_from_summary
+from planner.parser import question_guide
 from planner.executor import ExecutorConfig, VideoExecutor, prediction_horizon_for
 from planner.vlm import ChatClient, VlmConfig, answer_with_vlm
 from world.io import load_camera
@@ -50,7 +52,8 @@ def register_ask(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "ask", help="ask a multiple-choice question about a world",
         description="Answer a CLEVRER-style question with one verdict per choice, grounded in tool calls over HTTP. "
-                    "Offline program executor by default; --vlm drives an OpenAI-compatible model instead.")
+                    "Offline program executor by default; --vlm drives an OpenAI-compatible model instead.",
+        epilog=question_guide(), formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("question", help="e.g. 'Which of the following will happen if the red cube is removed?'")
     parser.add_argument("--choice", action="append", default=[], required=True, help="one option (repeat)")
     where = parser.add_argument_group("world")
@@ -141,6 +144,7 @@ def run_ask(args: argparse.Namespace) -> int:
                 answer = answer_with_vlm(chat, client, world, args.question, list(args.choice), config)
         else:
             answer = VideoExecutor(world, ExecutorConfig(mode=args.mode)).answer_text(args.question, list(args.choice))
+        answer = refuse_false_premise(answer, objects_from_summary(world.call("get_world_summary")))
         print(render_answer(answer, world.calls))
         if args.json:
             args.json.parent.mkdir(parents=True, exist_ok=True)

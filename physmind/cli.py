@@ -17,6 +17,7 @@ import sys
 from typing import Sequence
 
 from physmind import __version__
+from physmind.errors import CliError
 
 # Modules that provide ``register(subparsers)``; missing ones are skipped so a
 # partial install still serves the subcommands it has.
@@ -31,9 +32,6 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "planner.cli",
 )
 
-
-class CliError(Exception):
-    """A user-facing error: printed as one line, exit code 2, no traceback."""
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -9,7 +9,14 @@ view), then measures:
   check_contact, inspect_world_state and simulate_edit;
 * throughput (requests/s) with 16 concurrent clients, bounded in count and time.
 
+With ``--mix``: instead, ``--clients`` concurrent clients (default 64 there)
+run the tool mix (check_contact, inspect_world_state, simulate_edit summary
+and sampled, round robin) for ``--duration`` seconds while one prober asks
+/healthz every 50 ms; reports mix throughput, status counts, transport errors
+and /healthz p50/p99/max under that load.
+
 Usage:  python -m bench.bench_server [--requests 300] [--duration 5] [--clients 16]
+        python -m bench.bench_server --mix --clients 64 --duration 30
 Prints a Markdown table. Loopback only; nothing leaves the machine.
 """
 
@@ -85,9 +92,12 @@ def connect(url: str) -> http.client.HTTPConnection:
     return http.client.HTTPConnection(parsed.hostname, parsed.port, timeout=60)
 
 
-def request(conn: http.client.HTTPConnection, method: str, path: str, body: dict | None = None) -> tuple[int, bytes]:
+def request(conn: http.client.HTTPConnection, method: str, path: str, body: dict | None = None,
+            api_key: str | None = None) -> tuple[int, bytes]:
     payload = None if body is None else json.dumps(body).encode()
     headers = {"Content-Type": "application/json"} if payload is not None else {}
+    if api_key:
+        headers["Authorization"] = f"Bearer {api_key}"
     conn.request(method, path, body=payload, headers=headers)
     response = conn.getresponse()
     return response.status, response.read()
@@ -139,6 +149,69 @@ def throughput(url: str, path: str, body: dict, clients: int, max_requests: int,
     return {"rps": done["ok"] / elapsed, "requests": done["ok"], "errors": done["errors"], "seconds": elapsed}
 
 
+def mix_load(url: str, tools: str, clients: int, duration: float, api_key: str | None = None) -> dict:
+    """``clients`` threads on the tool mix for ``duration`` s, /healthz probed every 50 ms meanwhile."""
+    mix = [
+        ("check_contact", {"object_a": 0, "object_b": 1}),
+        ("inspect_world_state", {"frame": 60}),
+        ("simulate_edit", {"edit_type": "remove_object", "object_id": 1, "trajectory_detail": "summary"}),
+        ("simulate_edit", {"edit_type": "remove_object", "object_id": 1}),
+    ]
+    lock = threading.Lock()
+    statuses: dict[int, int] = {}
+    transport_errors = {"count": 0, "first": ""}
+    health_ms: list[float] = []
+    deadline = time.monotonic() + duration
+
+    def worker(index: int) -> None:
+        conn = connect(url)
+        step = index
+        while time.monotonic() < deadline:
+            tool, payload = mix[step % len(mix)]
+            step += 1
+            try:
+                status, _ = request(conn, "POST", f"{tools}/{tool}", payload, api_key)
+            except (OSError, http.client.HTTPException) as error:
+                with lock:
+                    transport_errors["count"] += 1
+                    transport_errors["first"] = transport_errors["first"] or repr(error)[:200]
+                conn.close()
+                conn = connect(url)
+                continue
+            with lock:
+                statuses[status] = statuses.get(status, 0) + 1
+        conn.close()
+
+    def prober() -> None:
+        conn = connect(url)
+        while time.monotonic() < deadline:
+            started = time.perf_counter()
+            try:
+                request(conn, "GET", "/healthz")
+                health_ms.append((time.perf_counter() - started) * 1000)
+            except (OSError, http.client.HTTPException):
+                with lock:
+                    transport_errors["count"] += 1
+                conn.close()
+                conn = connect(url)
+            time.sleep(0.05)
+        conn.close()
+
+    threads = [threading.Thread(target=worker, args=(i,)) for i in range(clients)] + [threading.Thread(target=prober)]
+    started = time.perf_counter()
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    elapsed = time.perf_counter() - started
+    ok = statuses.get(200, 0)
+    return {"rps": ok / elapsed, "seconds": elapsed, "statuses": dict(sorted(statuses.items())),
+            "transport_errors": transport_errors["count"], "first_transport_error": transport_errors["first"],
+            "healthz_p50": percentile(health_ms, 50) if health_ms else float("nan"),
+            "healthz_p99": percentile(health_ms, 99) if health_ms else float("nan"),
+            "healthz_max": max(health_ms) if health_ms else float("nan"), "healthz_n": len(health_ms)}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--url", help="use a running server (loopback only) instead of starting one")
@@ -146,6 +219,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--clients", type=int, default=16)
     parser.add_argument("--duration", type=float, default=5.0, help="seconds per throughput run (upper bound)")
     parser.add_argument("--max-throughput-requests", type=int, default=5000)
+    parser.add_argument("--mix", action="store_true", help="run only the mixed-tool load test with a /healthz prober")
     parser.add_argument("--no-validate-results", action="store_true", help="start the server with PHYSMIND_VALIDATE_RESULTS=0")
     args = parser.parse_args(argv)
     if args.requests < 1 or args.clients < 1 or args.duration <= 0:
@@ -164,6 +238,16 @@ def main(argv: list[str] | None = None) -> int:
             raise RuntimeError(f"creating the world failed: {status} {body[:300]!r}")
         world_id = json.loads(body)["world_id"]
         tools = f"/v1/worlds/{world_id}/tools"
+        if args.mix:
+            result = mix_load(url, tools, args.clients, args.duration)
+            print(f"\nPhysMind tool server, tool mix, {args.clients} clients for {args.duration:g} s, {os.cpu_count()} CPUs\n")
+            print("| mix req/s (200) | statuses | transport errors | /healthz p50 ms | /healthz p99 ms | /healthz max ms | probes |")
+            print("|---:|---|---:|---:|---:|---:|---:|")
+            print(f"| {result['rps']:.1f} | {result['statuses']} | {result['transport_errors']} | {result['healthz_p50']:.1f} | "
+                  f"{result['healthz_p99']:.1f} | {result['healthz_max']:.1f} | {result['healthz_n']} |")
+            if result["first_transport_error"]:
+                print(f"first transport error: {result['first_transport_error']}")
+            return 0
         cases = [
             ("check_contact", {"object_a": 0, "object_b": 1}, args.requests),
             ("inspect_world_state", {"frame": 60}, args.requests),

@@ -14,7 +14,10 @@ from __future__ import annotations
 import argparse
 import importlib
 import sys
+from pathlib import Path
 from typing import Sequence
+
+import httpx
 
 from physmind import __version__
 from physmind.errors import CliError
@@ -32,6 +35,41 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "planner.cli",
 )
 
+
+
+# Options that name a file to write, by argparse dest; a directory there is a user error caught before any work.
+OUTPUT_FILE_OPTIONS = {"output": "-o/--output", "json": "--json", "report": "--report", "png": "--png"}
+
+
+def check_output_files(args: argparse.Namespace) -> None:
+    """CliError if an option that names an output file names an existing directory."""
+    for dest, flag in OUTPUT_FILE_OPTIONS.items():
+        value = getattr(args, dest, None)
+        if isinstance(value, Path) and value.is_dir():
+            raise CliError(f"{flag}: {str(value)!r} is a directory; give a file name")
+
+
+def _user_error_types() -> tuple[type[BaseException], ...]:
+    """Errors that are the user's input or environment, never a bug: one line, exit code 2."""
+    types: list[type[BaseException]] = [CliError, ValueError, OSError, httpx.HTTPError]
+    try:  # the planner's client reports a server's structured refusal
+        from planner.client import ToolCallError
+
+        types.append(ToolCallError)
+    except ModuleNotFoundError:
+        pass
+    return tuple(types)
+
+
+def _one_line(error: BaseException) -> str:
+    text = " ".join(str(error).split()) or type(error).__name__
+    if isinstance(error, httpx.TransportError):
+        try:
+            where = f" at {error.request.url.scheme}://{error.request.url.netloc.decode()}"
+        except RuntimeError:  # no request attached
+            where = ""
+        text = f"cannot reach the tool server{where} ({text})"
+    return text if len(text) <= 500 else text[:497] + "..."
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -62,9 +100,10 @@ def main(argv: Sequence[str] | None = None) -> int:
         parser.print_help()
         return 2
     try:
+        check_output_files(args)
         return int(handler(args) or 0)
-    except (CliError, ValueError, FileNotFoundError) as error:
-        print(f"physmind {args.command}: error: {error}", file=sys.stderr)
+    except _user_error_types() as error:
+        print(f"physmind {args.command}: error: {_one_line(error)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print(f"physmind {args.command}: interrupted", file=sys.stderr)

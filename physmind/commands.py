@@ -155,6 +155,8 @@ def run_ask(args: argparse.Namespace) -> int:
             document = json.loads(args.world.read_text())
         except json.JSONDecodeError as error:
             raise ValueError(f"{args.world}: not valid JSON ({error.msg})") from None
+        if not isinstance(document, dict) or not isinstance(document.get("observed_frames"), int):
+            raise ValueError(f"{args.world}: not a world document (a JSON object as written by physmind fit/build)")
     with _server_for(args) as url, ToolClient(url) as client:
         if document is not None:
             world = client.create_world(document, name=args.world.stem, horizon_frames=prediction_horizon_for(document))

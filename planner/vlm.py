@@ -284,7 +284,9 @@ def answer_with_vlm(chat: ChatClient, tools_client: ToolClient, world: WorldHand
         message, usage = chat.complete(messages, only_submit if budget_spent else all_tools, force_submit if budget_spent else "auto")
         transcript.add_usage(usage)
         calls = message.get("tool_calls") or []
-        assistant: dict[str, Any] = {"role": "assistant", "content": message.get("content")}
+        # Echo the turn back with "" for a null content: OpenAI allows null beside tool_calls, but
+        # llama-cpp-python's server refuses null and its chat template needs the key (a real model found this).
+        assistant: dict[str, Any] = {"role": "assistant", "content": message.get("content") or ""}
         if calls:
             assistant["tool_calls"] = calls
         messages.append(assistant)

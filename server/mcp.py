@@ -122,22 +122,23 @@ def world_payload(registry: Any, world_id: str) -> dict:
             "rollout_ids": store.rollout_ids(world_id), "world": document}
 
 
-def _call(registry: Any, name: str, arguments: dict) -> dict:
-    """Run one MCP tool call synchronously (in a worker thread). Raises ToolError."""
+async def _call(registry: Any, pool: Any, name: str, arguments: dict) -> dict:
+    """Run one MCP tool call: world creation and tools in the server's worker pool, as over HTTP. Raises ToolError."""
     if name == "list_worlds":
-        return list_worlds_payload(registry.store)
+        return await anyio.to_thread.run_sync(list_worlds_payload, registry.store)
     if name == "create_world":
-        return registry.create_world(without_null_optionals(arguments, CREATE_WORLD_SCHEMA))
+        body = without_null_optionals(arguments, CREATE_WORLD_SCHEMA)
+        return json.loads(await pool.call("create_world_from_bytes", json.dumps(body).encode()))
     world_id = arguments.get("world_id")
     if not isinstance(world_id, str) or not world_id:
         raise invalid_argument(name, "/world_id", "missing or empty world_id" if world_id is None else
                                f"{world_id!r} is not a world id", "a world_id from list_worlds or create_world")
     rest = {k: v for k, v in arguments.items() if k != "world_id"}
-    return registry.run_tool(world_id, name, json.dumps(rest).encode())
+    return json.loads(await pool.call("run_tool", world_id, name, json.dumps(rest).encode()))
 
 
-def build_mcp_server(registry: Any, version: str) -> Server:
-    """The low-level MCP server over a ``server.app.WorldRegistry`` (its store and sessions)."""
+def build_mcp_server(registry: Any, pool: Any, version: str) -> Server:
+    """The low-level MCP server over a ``server.world_registry.WorldRegistry`` and its ``server.workers.WorkerPool``."""
     tools = mcp_tools()
     names = [tool.name for tool in tools]
 
@@ -148,7 +149,7 @@ def build_mcp_server(registry: Any, version: str) -> Server:
         if params.name not in names:
             raise MCPError(types.INVALID_PARAMS, f"unknown tool {params.name!r}; tools: {names}")
         try:
-            payload = await anyio.to_thread.run_sync(_call, registry, params.name, dict(params.arguments or {}))
+            payload = await _call(registry, pool, params.name, dict(params.arguments or {}))
         except ToolError as error:
             return _error_result(error)
         return _result(payload)
@@ -183,14 +184,14 @@ def build_mcp_server(registry: Any, version: str) -> Server:
                   on_list_resource_templates=on_list_resource_templates, on_read_resource=on_read_resource)
 
 
-def mount_mcp(app: Any, registry: Any) -> None:
+def mount_mcp(app: Any, registry: Any, pool: Any) -> None:
     """Serve MCP over Streamable HTTP at ``/mcp`` on ``app`` (stateless, JSON responses).
 
     The session manager runs inside the app's lifespan. Host-header checks
     (DNS-rebinding protection) are off: the server binds where its operator
     says and ``PHYSMIND_API_KEY`` guards ``/mcp`` like ``/v1``.
     """
-    server = build_mcp_server(registry, app.version)
+    server = build_mcp_server(registry, pool, app.version)
     mcp_app = server.streamable_http_app(
         streamable_http_path=MCP_PATH, stateless_http=True, json_response=True,
         transport_security=TransportSecuritySettings(enable_dns_rebinding_protection=False))

@@ -25,14 +25,18 @@ def serve_stdio(args: argparse.Namespace) -> int:
     import anyio
     from mcp.server.stdio import stdio_server
 
-    from server.app import API_VERSION, WorldRegistry
+    from server.datadir import open_store
     from server.mcp import build_mcp_server
+    from server.routes_meta import API_VERSION
     from server.settings import Settings
-    from server.store import SqliteStore
+    from server.workers import WorkerPool
+    from server.world_registry import WorldRegistry
 
     settings = Settings.from_env(data_dir=args.data_dir)
-    store = SqliteStore(settings.database_path)
-    server = build_mcp_server(WorldRegistry(store, settings), API_VERSION)
+    store = open_store(settings.database_path)
+    registry = WorldRegistry(store, settings)
+    pool = WorkerPool(settings, registry)
+    server = build_mcp_server(registry, pool, API_VERSION)
 
     async def run() -> None:
         async with stdio_server() as (read_stream, write_stream):
@@ -41,5 +45,6 @@ def serve_stdio(args: argparse.Namespace) -> int:
     try:
         anyio.run(run)
     finally:
+        pool.shutdown()
         store.close()
     return 0

@@ -213,6 +213,24 @@ class SqliteStore:
             self._remember(key, world)
         return world
 
+    def check_integrity(self) -> None:
+        """sqlite3.DatabaseError unless the file is a readable database with our tables."""
+        # Reading a row reads the header and the schema; a full integrity check would be O(database).
+        self._conn().execute("SELECT world_id FROM worlds LIMIT 1").fetchone()
+
+    def has_world(self, world_id: str) -> bool:
+        return self._conn().execute("SELECT 1 FROM worlds WHERE world_id = ?", (world_id,)).fetchone() is not None
+
+    def size_bytes(self) -> int:
+        """Bytes of the database file and its WAL on disk (what the storage quota counts)."""
+        total = 0
+        for suffix in ("", "-wal"):
+            try:
+                total += Path(f"{self.path}{suffix}").stat().st_size
+            except FileNotFoundError:
+                pass
+        return total
+
     def delete_world(self, world_id: str) -> bool:
         with self._transaction() as conn:
             deleted = conn.execute("DELETE FROM worlds WHERE world_id = ?", (world_id,)).rowcount

@@ -53,6 +53,8 @@ def _one_scene(job: tuple[str, int, int]):
 def run_generate(args: argparse.Namespace) -> int:
     if args.out is None:
         raise ValueError("--out: required (output directory)")
+    if args.out.exists() and not args.out.is_dir():
+        raise ValueError(f"--out: {str(args.out)!r} is a file, not a directory")
     if args.scenes is None or args.scenes < 1:
         raise ValueError(f"--scenes: expected an integer >= 1, got {args.scenes!r}")
     if args.start_index < 0:

@@ -51,16 +51,16 @@ def boundaries(rollout: Rollout) -> dict[str, Any]:
 def frame_range(args: Mapping[str, Any], rollout: Rollout, tool: str) -> tuple[int, int]:
     """Inclusive (start, end) from optional ``frame_start``/``frame_end``, clipped to the rollout.
 
-    The end may exceed the horizon (clipped); a start after the end is an error.
-    An empty range (start beyond the horizon) yields start > end.
+    The end may exceed the horizon (clipped); a start after the end the client
+    gave is an error. A start beyond the horizon is an empty range (start > end).
     """
     last = rollout.horizon_frames - 1
     start = int(args.get("frame_start", 0))
-    end = args.get("frame_end")
-    end = last if end is None else int(end)
-    if start > end:
-        raise invalid_argument(tool, "/frame_end", f"frame_end ({end}) is before frame_start ({start})", f"an integer >= {start}")
-    return start, min(end, last)
+    given_end = args.get("frame_end")
+    if given_end is not None and int(given_end) < start:
+        raise invalid_argument(tool, "/frame_end", f"frame_end ({int(given_end)}) is before frame_start ({start})",
+                               f"an integer >= {start}")
+    return start, last if given_end is None else min(int(given_end), last)
 
 
 def object_attributes(world: World, object_id: int) -> dict[str, Any]:

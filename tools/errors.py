@@ -61,12 +61,26 @@ def invalid_argument(tool: str | None, pointer: str, message: str, expected: str
     return ToolError(code="invalid_arguments", message=message, tool=tool, pointer=pointer, expected=expected, status=422)
 
 
+# An error must stay small: echoed input is cut, and other ids are listed only when few.
+MAX_ECHO_CHARS = 80
+MAX_LISTED_IDS = 20
+
+
+def echo(value: Any, limit: int = MAX_ECHO_CHARS) -> str:
+    """``repr(value)`` cut to ``limit`` characters."""
+    text = repr(value)
+    return text if len(text) <= limit else text[: limit - 3] + "..."
+
+
 def not_found(kind: str, value: Any, valid_ids: Sequence[Any], *, tool: str | None, pointer: str) -> ToolError:
-    """``kind`` is ``rollout``, ``object``, ``world`` or ``tool``."""
+    """``kind`` is ``rollout``, ``object``, ``world`` or ``tool``; lists ``valid_ids`` when there are few."""
     valid = list(valid_ids)
+    if len(valid) > MAX_LISTED_IDS:
+        return ToolError(code=f"{kind}_not_found", message=f"unknown {kind} id {echo(value)}; there are {len(valid)} {kind} ids",
+                         tool=tool, pointer=pointer, expected=f"one of the {len(valid)} existing {kind} ids", status=404)
     return ToolError(
         code=f"{kind}_not_found",
-        message=f"unknown {kind} id {value!r}; valid {kind} ids: {valid}",
+        message=f"unknown {kind} id {echo(value)}; valid {kind} ids: {valid}",
         tool=tool,
         pointer=pointer,
         expected=f"one of {valid}",

@@ -24,9 +24,15 @@ import copy
 import json
 from typing import Any, Callable
 
-from tools.registry import openai_tools, tool_registry
+from tools.registry import tool_registry
 
 LISTING_FORMATS = ("openai", "openai-strict", "responses", "anthropic", "gemini")
+
+# Combinators the function-calling APIs refuse at the top of a parameters schema
+# (OpenAI: "must be type object and not have oneOf/anyOf/allOf/enum/not at the
+# top level"). The server still validates with them; the listing states their
+# rules in words.
+TOP_LEVEL_COMBINATORS = ("allOf", "anyOf", "oneOf", "not", "if", "then", "else", "enum")
 
 # Keywords OpenAI's strict mode rejects (Structured Outputs, "supported schemas"),
 # plus the ones it ignores that we move into the description (default, title).
@@ -128,38 +134,58 @@ def gemini_schema(schema: Any) -> Any:
     return out
 
 
-def _public(schema: dict) -> dict:
+def listed_parameters(schema: dict) -> dict:
+    """An argument schema as every listing starts from: no document keywords, no top-level combinators.
+
+    Rules written as top-level ``allOf``/``if``/``then`` (e.g. simulate_edit's
+    "set_velocity needs value") move into the description, one sentence each.
+    """
     public = copy.deepcopy(schema)
     for key in ("$schema", "$id"):
         public.pop(key, None)
+    rules: list[str] = []
+    for key in TOP_LEVEL_COMBINATORS:
+        removed = public.pop(key, None)
+        for part in removed if isinstance(removed, list) else ([removed] if isinstance(removed, dict) else []):
+            if isinstance(part, dict) and part.get("description"):
+                rules.append(part["description"])
+    if rules:
+        text = public.get("description", "")
+        public["description"] = (f"{text} " if text else "") + "Rules: " + "; ".join(rules) + "."
     return public
+
+
+def _openai() -> list[dict]:
+    return [{"type": "function", "function": {"name": tool.name, "description": tool.spec.description,
+                                              "parameters": listed_parameters(tool.args_schema)}}
+            for tool in tool_registry().values()]
 
 
 def _openai_strict() -> list[dict]:
     return [{"type": "function", "function": {"name": tool.name, "description": tool.spec.description,
-                                              "parameters": strict_schema(tool.args_schema), "strict": True}}
+                                              "parameters": strict_schema(listed_parameters(tool.args_schema)), "strict": True}}
             for tool in tool_registry().values()]
 
 
 def _responses() -> list[dict]:
     return [{"type": "function", "name": tool.name, "description": tool.spec.description,
-             "parameters": strict_schema(tool.args_schema), "strict": True}
+             "parameters": strict_schema(listed_parameters(tool.args_schema)), "strict": True}
             for tool in tool_registry().values()]
 
 
 def _anthropic() -> list[dict]:
-    return [{"name": tool.name, "description": tool.spec.description, "input_schema": _public(tool.args_schema)}
+    return [{"name": tool.name, "description": tool.spec.description, "input_schema": listed_parameters(tool.args_schema)}
             for tool in tool_registry().values()]
 
 
 def _gemini() -> list[dict]:
     return [{"functionDeclarations": [
-        {"name": tool.name, "description": tool.spec.description, "parameters": gemini_schema(_public(tool.args_schema))}
+        {"name": tool.name, "description": tool.spec.description, "parameters": gemini_schema(listed_parameters(tool.args_schema))}
         for tool in tool_registry().values()]}]
 
 
 _BUILDERS: dict[str, Callable[[], list[dict]]] = {
-    "openai": openai_tools, "openai-strict": _openai_strict, "responses": _responses,
+    "openai": _openai, "openai-strict": _openai_strict, "responses": _responses,
     "anthropic": _anthropic, "gemini": _gemini,
 }
 

@@ -188,6 +188,8 @@ def validation_error_to_tool_error(error: ValidationError, tool: str | None, pre
         if extra:
             path.append(extra[0])
             message = f"unknown property {extra[0]!r}"
+    elif error.validator == "not" and isinstance(error.schema, dict) and error.schema.get("description"):
+        message = f"{error.schema['description']}; got {json.dumps(error.instance, default=str)[:80]}"  # a rule of the schema's allOf
     if len(message) > 300:
         message = message[:300] + "..."
     return invalid_argument(tool, prefix + json_pointer(path), message, _expected(error))

@@ -53,6 +53,27 @@ def _check_typed_dict(kind: Any, value: dict) -> None:
     assert not unknown, f"{kind.__name__} has no keys {unknown}"
 
 
+def _parameters(tool: dict, listing_format: str) -> dict:
+    return {"openai": lambda: tool["function"]["parameters"], "openai-strict": lambda: tool["function"]["parameters"],
+            "responses": lambda: tool["parameters"], "anthropic": lambda: tool["input_schema"]}[listing_format]()
+
+
+@pytest.mark.parametrize("listing_format", ["openai", "openai-strict", "responses", "anthropic", "gemini"])
+def test_no_listing_has_combinators_at_the_top(listing_format):
+    """OpenAI refuses oneOf/anyOf/allOf/enum/not at the top of parameters; the rules move into the description."""
+    listing = tool_listing(listing_format)
+    schemas = ([d["parameters"] for d in listing[0]["functionDeclarations"]] if listing_format == "gemini"
+               else [_parameters(t, listing_format) for t in listing])
+    for schema in schemas:
+        assert schema["type"] == "object"
+        assert not {"allOf", "anyOf", "oneOf", "not", "if", "then", "else", "enum"} & set(schema), set(schema)
+    names = [d["name"] for d in listing[0]["functionDeclarations"]] if listing_format == "gemini" else [
+        t.get("name") or t["function"]["name"] for t in listing]
+    simulate_edit = schemas[names.index("simulate_edit")]
+    if "allOf" in tool_registry()["simulate_edit"].args_schema:
+        assert "Rules:" in simulate_edit["description"] and "set_velocity" in simulate_edit["description"]
+
+
 def test_every_format_lists_every_tool():
     names = list(tool_registry())
     assert len(names) == 9
@@ -89,6 +110,7 @@ def _assert_openai_strict(parameters: dict, original: dict, name: str) -> None:
     jsonschema.Draft202012Validator.check_schema(parameters)
     required = set(original.get("required", ()))
     assert set(parameters["properties"]) == set(original["properties"])
+    assert "allOf" not in parameters and "if" not in parameters
     for prop, sub in original["properties"].items():
         strict_sub = jsonschema.Draft202012Validator(parameters["properties"][prop])
         assert strict_sub.is_valid(None) is (prop not in required), f"{name}.{prop}: null accepted iff optional"

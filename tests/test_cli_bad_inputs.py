@@ -1,0 +1,89 @@
+"""The CLI's promise on bad input: one line on stderr, exit code 2, never a traceback.
+
+One test per case of issue 15 (the serve cases are in tests/server/test_serve_cli.py).
+"""
+
+from __future__ import annotations
+
+import json
+import socket
+
+import pytest
+
+from physmind.cli import main
+from physmind.local_server import local_server
+
+
+def run_cli(argv: list[str], capsys) -> str:
+    code = main(argv)
+    err = capsys.readouterr().err
+    assert code == 2, (code, err)
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1, err
+    return err
+
+
+@pytest.fixture()
+def annotation(tmp_path):
+    path = tmp_path / "annotation_00000.json"
+    path.write_text("{}")
+    return path
+
+
+@pytest.mark.parametrize("argv", [
+    ["fit", "{input}", "-o", "{dir}"],
+    ["build", "{input}", "-o", "{dir}"],
+    ["parse", "{input}", "-o", "{dir}"],
+    ["perceive", "{input}", "--camera", "{input}", "-o", "{dir}"],
+    ["ask", "q?", "--choice", "a", "--world", "{input}", "--json", "{dir}"],
+    ["eval", "{dir}", "-o", "{dir}"],
+])
+def test_output_option_naming_a_directory(argv, annotation, tmp_path, capsys):
+    filled = [a.format(input=annotation, dir=tmp_path) for a in argv]
+    err = run_cli(filled, capsys)
+    assert "is a directory" in err
+
+
+@pytest.mark.parametrize("content", ["[1, 2, 3]", '"a string"', '{"bodies": []}'])
+def test_ask_with_a_world_of_the_wrong_shape(content, tmp_path, capsys):
+    world = tmp_path / "world.json"
+    world.write_text(content)
+    err = run_cli(["ask", "Will the red cube collide?", "--choice", "yes", "--world", str(world)], capsys)
+    assert "not a world document" in err
+
+
+def _free_port() -> int:
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def test_ask_with_an_unreachable_server(capsys):
+    err = run_cli(["ask", "q?", "--choice", "a", "--server", f"http://127.0.0.1:{_free_port()}", "--world-id", "w-x"], capsys)
+    assert "cannot reach the tool server" in err
+
+
+@pytest.fixture(scope="module")
+def server_url(tmp_path_factory):
+    with local_server(tmp_path_factory.mktemp("cli-server")) as url:
+        yield url
+
+
+def test_ask_with_an_unknown_world_id(server_url, capsys):
+    err = run_cli(["ask", "q?", "--choice", "a", "--server", server_url, "--world-id", "w-nope"], capsys)
+    assert "world_not_found" in err
+
+
+def test_ask_with_a_world_the_server_rejects(server_url, scene_builders, tmp_path, capsys):
+    from world.io import world_to_dict
+
+    world = tmp_path / "world.json"
+    world.write_text(json.dumps({**world_to_dict(scene_builders.six_object_world()), "fps": -1}))
+    err = run_cli(["ask", "q?", "--choice", "a", "--server", server_url, "--world", str(world)], capsys)
+    assert "HTTP 422 invalid_arguments" in err
+
+
+def test_synth_out_naming_a_file(tmp_path, capsys):
+    target = tmp_path / "file"
+    target.write_text("x")
+    err = run_cli(["synth", "--out", str(target), "--scenes", "1", "--seed", "1"], capsys)
+    assert "is a file" in err

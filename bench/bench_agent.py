@@ -43,11 +43,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--max-tool-calls", type=int, default=4)
     parser.add_argument("--max-turns", type=int, default=6)
     parser.add_argument("--json", type=Path, default=None, help="per-question records")
+    parser.add_argument("--time-budget", type=float, default=None,
+                        help="seconds after which no new question is started (the table says how many were asked)")
     args = parser.parse_args(argv)
     entries = load_dataset(args.dataset)
     worlds, _ = build_worlds(entries, "annotation", progress=True)
     tool_names = None if args.tools == "all" else tuple(t.strip() for t in args.tools.split(",") if t.strip())
     records: list[dict] = []
+    deadline = None if args.time_budget is None else time.monotonic() + args.time_budget
     with local_server() as url, ToolClient(url) as tools, model_server() as base_url:
         config = VlmConfig(base_url=base_url, model=MODEL_ALIAS, max_tool_calls=args.max_tool_calls,
                            max_turns=args.max_turns, timeout_s=900, tool_names=tool_names)
@@ -57,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
                     continue
                 world = tools.create_world(worlds[entry.scene_index], horizon_frames=prediction_horizon_for(worlds[entry.scene_index]))
                 for question in entry.questions:
-                    if len(records) >= args.questions:
+                    if len(records) >= args.questions or (deadline is not None and time.monotonic() > deadline):
                         break
                     choices = [c["choice"] for c in question["choices"]]
                     truth = [c.get("answer") for c in question["choices"]]

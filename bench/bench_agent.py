@@ -78,7 +78,7 @@ def main(argv: list[str] | None = None) -> int:
                     record["seconds"] = time.perf_counter() - started
                     records.append(record)
                     print(f"[{len(records)}/{args.questions}] {record['outcome']} {record['seconds']:.0f} s "
-                          f"{json.dumps(record.get('stats', {}).get('usage', {}))}", file=sys.stderr, flush=True)
+                          f"{json.dumps(record.get('stats', {}))}", file=sys.stderr, flush=True)
     if args.json:
         args.json.write_text(json.dumps(records, indent=1))
     print(format_report(records, args))

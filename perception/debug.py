@@ -34,6 +34,13 @@ _FONT = {
 
 def write_png(path: Path, image: np.ndarray) -> None:
     """Write an (H, W, 3) uint8 RGB image as PNG."""
+    data = png_bytes(image)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_bytes(data)
+
+
+def png_bytes(image: np.ndarray) -> bytes:
+    """An (H, W, 3) uint8 RGB image encoded as PNG."""
     if image.ndim != 3 or image.shape[2] != 3 or image.dtype != np.uint8:
         raise ValueError(f"image: expected (H, W, 3) uint8, got {image.shape} {image.dtype}")
     height, width, _ = image.shape
@@ -43,8 +50,7 @@ def write_png(path: Path, image: np.ndarray) -> None:
         return struct.pack(">I", len(payload)) + tag + payload + struct.pack(">I", zlib.crc32(tag + payload) & 0xFFFFFFFF)
 
     header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b""))
+    return b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(raw, 6)) + chunk(b"IEND", b"")
 
 
 def draw_text(image: np.ndarray, text: str, x: int, y: int, colour: np.ndarray, scale: int = 2) -> None:

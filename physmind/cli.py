@@ -20,6 +20,7 @@ from typing import Sequence
 import httpx
 
 from physmind import __version__
+from physmind.errors import CliError
 
 # Modules that provide ``register(subparsers)``; missing ones are skipped so a
 # partial install still serves the subcommands it has.
@@ -30,13 +31,11 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "world.identify.cli",
     "physmind.commands",
     "server.serve_cli",
+    "server.mcp_cli",
     "planner.cli",
     "render.cli",
 )
 
-
-class CliError(Exception):
-    """A user-facing error: printed as one line, exit code 2, no traceback."""
 
 
 # Options that name a file to write, by argparse dest; a directory there is a user error caught before any work.

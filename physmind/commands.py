@@ -10,6 +10,7 @@
 from __future__ import annotations
 
 import argparse
+import base64
 import contextlib
 import json
 import sys
@@ -17,12 +18,17 @@ import time
 from pathlib import Path
 from typing import Any, Iterator
 
+from perception.debug import png_bytes
+from perception.video import read_video
+from physmind.errors import CliError
 from physmind.local_server import local_server
-from planner.answer import render_answer
+from planner.answer import refuse_false_premise, render_answer
 from planner.client import ToolClient
 from planner.evaluate import evaluate, format_table, load_dataset
+from planner.grounding import objects_from_summary
+from planner.parser import question_guide
 from planner.executor import ExecutorConfig, VideoExecutor, prediction_horizon_for
-from planner.vlm import ChatClient, VlmConfig, answer_with_vlm
+from planner.vlm import ChatClient, VlmConfig, VlmError, answer_with_vlm
 from world.io import load_camera
 
 
@@ -49,7 +55,8 @@ def register_ask(subparsers: Any) -> None:
     parser = subparsers.add_parser(
         "ask", help="ask a multiple-choice question about a world",
         description="Answer a CLEVRER-style question with one verdict per choice, grounded in tool calls over HTTP. "
-                    "Offline program executor by default; --vlm drives an OpenAI-compatible model instead.")
+                    "Offline program executor by default; --vlm drives an OpenAI-compatible model instead.",
+        epilog=question_guide(), formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("question", help="e.g. 'Which of the following will happen if the red cube is removed?'")
     parser.add_argument("--choice", action="append", default=[], required=True, help="one option (repeat)")
     where = parser.add_argument_group("world")
@@ -69,6 +76,11 @@ def _vlm_arguments(parser: argparse.ArgumentParser) -> None:
     group.add_argument("--model", default=None, help="model name (default $OPENAI_MODEL)")
     group.add_argument("--api-key", default=None, help="default $OPENAI_API_KEY (prefer the environment: arguments are visible in ps)")
     group.add_argument("--max-tool-calls", type=int, default=24, help="tool-call budget per question (default 24)")
+    group.add_argument("--tools", default=None, help="comma-separated world tools to offer (default: all; small models may "
+                                                     "only afford a few, e.g. check_contact,simulate_edit)")
+    group.add_argument("--frames", type=int, default=0, help="attach N evenly spaced frames of --video to the first message "
+                                                              "(default 0: text only)")
+    group.add_argument("--video", type=Path, default=None, help="the video the world was built from (for --frames)")
 
 
 def register_eval(subparsers: Any) -> None:
@@ -119,7 +131,20 @@ def _server_for(args: argparse.Namespace) -> Iterator[str]:
         yield url
 
 
+def frame_data_urls(video: Path | None, count: int) -> list[str]:
+    """``count`` evenly spaced frames of ``video`` (first and last included) as PNG data URLs."""
+    if count < 1:
+        raise ValueError(f"--frames: expected >= 1, got {count}")
+    if video is None:
+        raise ValueError("--frames needs --video (the video the world was built from)")
+    frames, _ = read_video(video)
+    picks = sorted({round(k * (len(frames) - 1) / max(count - 1, 1)) for k in range(count)})
+    return ["data:image/png;base64," + base64.b64encode(png_bytes(frames[k])).decode("ascii") for k in picks]
+
+
 def run_ask(args: argparse.Namespace) -> int:
+    if (args.frames or args.video) and not args.vlm:
+        raise ValueError("--frames and --video are for --vlm (the program executor reads the world, not the video)")
     if args.world is None and args.world_id is None:
         raise ValueError("give --world world.json, or --server URL with --world-id")
     if args.world_id is not None and args.server is None:
@@ -140,11 +165,18 @@ def run_ask(args: argparse.Namespace) -> int:
         else:
             world = client.world(args.world_id)
         if args.vlm:
-            config = VlmConfig.from_args(args.base_url, args.model, args.api_key, max_tool_calls=args.max_tool_calls)
+            tool_names = tuple(name.strip() for name in args.tools.split(",") if name.strip()) if args.tools else None
+            config = VlmConfig.from_args(args.base_url, args.model, args.api_key, max_tool_calls=args.max_tool_calls,
+                                         tool_names=tool_names)
+            images = frame_data_urls(args.video, args.frames) if args.frames else []
             with ChatClient(config) as chat:
-                answer = answer_with_vlm(chat, client, world, args.question, list(args.choice), config)
+                try:
+                    answer = answer_with_vlm(chat, client, world, args.question, list(args.choice), config, images)
+                except VlmError as error:
+                    raise CliError(f"--vlm: {error}") from None
         else:
             answer = VideoExecutor(world, ExecutorConfig(mode=args.mode)).answer_text(args.question, list(args.choice))
+        answer = refuse_false_premise(answer, objects_from_summary(world.call("get_world_summary")))
         print(render_answer(answer, world.calls))
         if args.json:
             args.json.parent.mkdir(parents=True, exist_ok=True)

@@ -8,11 +8,13 @@ the tool calls (by index into the video's call log) that produced them.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal, Mapping, Sequence
 
 from planner.client import ToolCall
-from planner.grounding import Grounding
+from planner.grammar import ParseError
+from planner.grounding import Grounding, WorldObject, ground, program_references
+from planner.parser import parse_question
 
 Verdict = Literal["correct", "wrong"]
 
@@ -82,17 +84,70 @@ class Answer:
         return document
 
 
+FALSE_PREMISE = "false premise"
+
+
+def describe_objects(objects: Sequence[WorldObject]) -> str:
+    """"object 0 (red metal cylinder), object 1 (...)": the world's objects in words."""
+    return ", ".join(obj.describe() for obj in objects) or "no objects"
+
+
+def refuse_false_premise(answer: Answer, objects: Sequence[WorldObject]) -> Answer:
+    """``answer`` unless its question names an object the world does not have.
+
+    "What happens if the red cube is removed?" in a world without a red cube
+    has no true answer: every choice would be judged on a premise that does
+    not hold. Then the answer says so plainly (``error`` starts with "false
+    premise") and judges no choice. Choices naming absent objects are not
+    affected (they are simply not among the world's events).
+    """
+    program = answer.program
+    if program is None:  # a model's answer: the question's program from its text, if it parses
+        try:
+            program = parse_question(answer.question).program
+        except ParseError:
+            return answer
+    missing = [g for g in (ground(q, objects) for q in program_references(program)) if g.status == "unmatched"]
+    if not missing:
+        return answer
+    names = " and ".join(g.reference for g in missing)
+    message = (f"{FALSE_PREMISE}: the world has no {names.removeprefix('the ')}; its objects are {describe_objects(objects)}. "
+               "No choice is judged, since each would rest on an object that is not there.")
+    refused = tuple(replace(c, verdict=None, error=f"not judged: the question names {names}, which the world does not have")
+                    for c in answer.choices)
+    return replace(answer, choices=refused, error=message)
+
+
+def readable(value: Any) -> str:
+    """A value of a tool result as a person reads it: "none" for null, 3 significant digits, lists unbracketed when short."""
+    if value is None:
+        return "none"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return f"{value:.3g}"
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(readable(v) for v in value) + "]"
+    if isinstance(value, Mapping):
+        return "{" + ", ".join(f"{k}: {readable(v)}" for k, v in value.items()) + "}"
+    return str(value)
+
+
 def render_answer(answer: Answer, calls: Sequence[ToolCall] = (), truth: Sequence[str | None] | None = None) -> str:
-    """Plain-text rendering: verdict per choice with its facts, the tool calls, optionally the ground truth."""
+    """Plain-text rendering: verdict per choice with its facts, the tool calls, optionally the ground truth.
+
+    A question-level error (an unparsed question, a false premise) comes
+    first, right under the question, so it is not missed.
+    """
     lines = [f"Q ({answer.question_type or '?'}): {answer.question}"]
+    if answer.error:
+        lines.append(f"  ! {answer.error}")
     if answer.program is not None:
         lines.append(f"  program: {' '.join(answer.program)}")
     for grounding in answer.groundings:
         lines.append(f"  grounding: {grounding.message()}")
     for fact in answer.facts:
         lines.append(f"  fact: {fact}")
-    if answer.error:
-        lines.append(f"  error: {answer.error}")
     for k, choice in enumerate(answer.choices):
         verdict = choice.verdict or "undecided"
         mark = ""
@@ -107,7 +162,7 @@ def render_answer(answer: Answer, calls: Sequence[ToolCall] = (), truth: Sequenc
     if cited:
         lines.append("  tool calls:")
         for call in cited:
-            arguments = ", ".join(f"{k}={v}" for k, v in call.arguments.items()) or "-"
-            result = ", ".join(f"{k}={v}" for k, v in call.digest.items())
+            arguments = ", ".join(f"{k}={readable(v)}" for k, v in call.arguments.items()) or "-"
+            result = ", ".join(f"{k}={readable(v)}" for k, v in call.digest.items())
             lines.append(f"    #{call.index} {call.tool}({arguments}) -> {call.status} {result} [{call.duration_ms:.1f} ms]")
     return "\n".join(lines)

@@ -4,18 +4,21 @@ The grammar (EBNF; words are matched case-insensitively, ``'s`` is its own
 token, the word tables live in ``planner.vocabulary``)::
 
     question       := explanatory | future
-    explanatory    := WH "is" ["not"] "responsible" "for" event ["?"]
-    future         := WH "will" ["not"] "happen" tail ["?"]          (* tail decides *)
-                    | condition [","] WH "will" ["not"] "happen" ["?"]
+    explanatory    := WH ("is" | "was") ["not"] "responsible" "for" event ["?"]
+                    | WH "caused" event ["?"]
+    future         := WH happen tail ["?"]                            (* tail decides *)
+                    | condition [","] WH happen ["?"]
+    happen         := ("will" | "would") ["not"] "happen" | "happens"
     tail           := "next"                                          (* predictive *)
                     | condition                                       (* counterfactual *)
-    condition      := "if" object ("is" | "were") "removed" | "without" object
+    condition      := "if" object REMOVAL_PHRASE                      (* "is removed", "were taken away" *)
+                    | "if" ("we" | "you") "remove" object | "without" object
     WH             := "which" "of" "the" "following" | "which" "event" | "what"
 
     choice         := "the" "presence" "of" object                    (* explanatory only *)
                     | event
     event          := "the" "collision" "between" object "and" object
-                    | object "and" object PAIR_COLLISION_PHRASE       (* "... collide" *)
+                    | object "and" object PAIR_COLLISION_PHRASE       (* "... collide", "... hit each other" *)
                     | object ["'s"] SUBJECT_EVENT_PHRASE [object]     (* object iff collision *)
     object         := "the" attribute* (SHAPE | "object" | "thing")
 
@@ -31,6 +34,9 @@ from typing import Iterable, Sequence
 
 from planner.vocabulary import (
     ATTRIBUTE_WORDS,
+    FUTURE_MODALS,
+    REMOVAL_PHRASES,
+    REMOVER_WORDS,
     GENERIC_OBJECT_NOUNS,
     PAIR_COLLISION_PHRASES,
     SUBJECT_EVENT_PHRASES,
@@ -267,18 +273,28 @@ def _wh(cursor: _Cursor) -> None:
 
 
 def _condition(cursor: _Cursor) -> ObjectRef:
-    """condition := "if" object ("is" | "were") "removed" | "without" object"""
+    """condition := "if" object REMOVAL_PHRASE | "if" ("we" | "you") "remove" object | "without" object"""
     if cursor.accept("without"):
         return _object(cursor)
     cursor.expect("if")
+    if cursor.word() in REMOVER_WORDS:
+        cursor.index += 1
+        cursor.expect("remove")
+        return _object(cursor)
+    if cursor.word() != "the":
+        raise cursor.error(["the", *REMOVER_WORDS])
     removed = _object(cursor)
-    cursor.expect_phrase([("is", "removed"), ("were", "removed")])
+    cursor.expect_phrase(REMOVAL_PHRASES)
     return removed
 
 
 def _will_happen(cursor: _Cursor) -> bool:
-    """ "will" ["not"] "happen"; returns whether it is negated."""
-    cursor.expect("will")
+    """ ("will" | "would") ["not"] "happen" | "happens"; returns whether it is negated."""
+    if cursor.accept("happens"):
+        return False
+    if cursor.word() not in FUTURE_MODALS:
+        raise cursor.error([*FUTURE_MODALS, "happens"])
+    cursor.index += 1
     negated = cursor.accept("not")
     cursor.expect("happen")
     return negated
@@ -301,14 +317,19 @@ def parse_question_ast(text: str) -> QuestionAst:
     if cursor.word() not in _first_words(WH_PHRASES):
         raise cursor.error([*_first_words(WH_PHRASES), "if", "without"])
     _wh(cursor)
-    if cursor.accept("is"):
+    if cursor.accept("caused"):
+        target = _event(cursor)
+        cursor.expect_end()
+        return QuestionAst("explanatory", False, target=target)
+    if cursor.word() in ("is", "was"):
+        cursor.index += 1
         negated = cursor.accept("not")
         cursor.expect("responsible", "for")
         target = _event(cursor)
         cursor.expect_end()
         return QuestionAst("explanatory", negated, target=target)
-    if cursor.word() != "will":
-        raise cursor.error(["is", "will"])
+    if cursor.word() not in (*FUTURE_MODALS, "happens"):
+        raise cursor.error(["is", "was", "caused", *FUTURE_MODALS, "happens"])
     negated = _will_happen(cursor)
     if cursor.accept("next"):
         cursor.expect_end()

@@ -425,3 +425,27 @@ __all__ = [
     "parse_question_file",
     "question_program",
 ]
+
+
+def question_guide() -> str:
+    """What can be asked, in words: the forms the grammar accepts and its vocabulary (for ``ask --help``)."""
+    from planner.vocabulary import ATTRIBUTE_WORDS, COLORS, MATERIALS, SHAPES
+
+    synonyms = ", ".join(f"{word} = {value}" for word, (_, value) in ATTRIBUTE_WORDS.items() if word != value)
+    return "\n".join([
+        "What can be asked (one verdict per --choice; words in any case):",
+        "  explanatory     Which of the following is [not] responsible for <event>?   /  What caused <event>?",
+        "  predictive      What will happen next?   /  Which event will happen next?",
+        "  counterfactual  What would happen if <object> were removed?   /  ... if we remove <object>?  /  ... without <object>?",
+        "                  (also: will / would / happens, is / was / were removed, taken away)",
+        "  choices         <object> collides with / hits / bumps into / runs into <object>",
+        "                  <object> and <object> collide / hit each other",
+        "                  <object> enters / exits / leaves the scene   (explanatory: also 'the presence of <object>')",
+        "  <object>        'the' + up to one colour, material and shape, ending in a shape or 'object':",
+        "                  'the red cube', 'the metal ball', 'the green object'",
+        f"  colours         {', '.join(COLORS)}",
+        f"  materials       {', '.join(MATERIALS)}",
+        f"  shapes          {', '.join(SHAPES)}",
+        f"  plain words     {synonyms}",
+        "A question about an object the world does not have is answered with 'false premise', never with verdicts.",
+    ])

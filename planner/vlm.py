@@ -83,14 +83,23 @@ Finish by calling submit_answer (or replying with the same JSON) with one verdic
 
 
 class VlmError(RuntimeError):
-    """The chat endpoint failed or the conversation could not reach an answer."""
+    """The chat endpoint failed or the conversation could not reach an answer.
+
+    stats: the conversation's counts so far (as ``Answer.extra``), when there was one.
+    """
+
+    def __init__(self, message: str, stats: Mapping[str, Any] | None = None) -> None:
+        super().__init__(message)
+        self.stats = dict(stats or {})
 
 
 @dataclass(frozen=True)
 class VlmConfig:
     """base_url: the OpenAI-compatible API root (``.../v1``); api_key: bearer token or None.
     max_tool_calls: world tool calls per question; max_turns: chat requests per question;
-    max_result_chars: longer tool results are cut (with a note) before they reach the model."""
+    max_result_chars: longer tool results are cut (with a note) before they reach the model.
+    tool_names: the world tools offered (None: all of ``GET /v1/tools``); a small
+    model's context and speed may only afford a few."""
 
     base_url: str
     model: str
@@ -100,6 +109,7 @@ class VlmConfig:
     temperature: float = 0.0
     timeout_s: float = 120.0
     max_result_chars: int = 16000
+    tool_names: tuple[str, ...] | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.base_url, str) or not self.base_url.startswith(("http://", "https://")):
@@ -156,15 +166,43 @@ class ChatClient:
 
 @dataclass
 class _Transcript:
+    """What happened in one conversation.
+
+    model_calls: tool calls the model made (any name); failed_calls: those
+    answered with an error (unknown tool, non-JSON, schema or id error);
+    recovered: failed calls followed later by a successful call of the same tool.
+    """
+
     turns: int = 0
     tool_calls: list[int] = field(default_factory=list)
     rejected_answers: int = 0
     usage: dict[str, int] = field(default_factory=dict)
+    model_calls: int = 0
+    ok_calls: int = 0
+    failed_calls: int = 0
+    recovered: int = 0
+    _pending: list[str] = field(default_factory=list)
 
     def add_usage(self, usage: Mapping[str, Any]) -> None:
         for key, value in usage.items():
             if isinstance(value, int):
                 self.usage[key] = self.usage.get(key, 0) + value
+
+    def outcome(self, name: str, ok: bool) -> None:
+        """Count one tool call's outcome (a failure is recovered by a later success of the same tool)."""
+        if not ok:
+            self.failed_calls += 1
+            self._pending.append(name)
+            return
+        self.ok_calls += 1
+        if name in self._pending:
+            self.recovered += self._pending.count(name)
+            self._pending = [n for n in self._pending if n != name]
+
+    def stats(self) -> dict[str, Any]:
+        return {"chat_requests": self.turns, "model_calls": self.model_calls, "model_tool_calls": len(self.tool_calls) - 1,
+                "ok_calls": self.ok_calls, "failed_calls": self.failed_calls, "recovered_calls": self.recovered,
+                "rejected_answers": self.rejected_answers, "usage": dict(self.usage)}
 
 
 def _parse_answer(raw: Any, choice_count: int) -> tuple[dict[str, Any] | None, str | None]:
@@ -199,9 +237,22 @@ def _user_prompt(question: str, choices: Sequence[str], summary: Mapping[str, An
     return "\n".join(lines)
 
 
+def _first_message(text: str, images: Sequence[str]) -> str | list[dict[str, Any]]:
+    """The first user message: plain text, or text then images (OpenAI content parts) when frames are attached."""
+    if not images:
+        return text
+    parts: list[dict[str, Any]] = [{"type": "text", "text": text + f"\n\n{len(images)} frames of the video follow, evenly spaced in time."}]
+    parts += [{"type": "image_url", "image_url": {"url": url}} for url in images]
+    return parts
+
+
 def answer_with_vlm(chat: ChatClient, tools_client: ToolClient, world: WorldHandle, question: str, choices: Sequence[str],
-                    config: VlmConfig | None = None) -> Answer:
+                    config: VlmConfig | None = None, images: Sequence[str] = ()) -> Answer:
     """Run the function-calling loop for one question; the Answer cites the model's tool calls.
+
+    images: URLs (``data:image/png;base64,...``) of video frames attached to
+    the first user message, as the paper gives its VLM the observation clip;
+    empty for text-only models.
 
     Raises:
         VlmError: the endpoint failed, or no valid answer within ``max_turns`` requests.
@@ -211,6 +262,12 @@ def answer_with_vlm(chat: ChatClient, tools_client: ToolClient, world: WorldHand
     if not choices:
         raise ValueError("choices: at least one choice is needed")
     world_tools = tools_client.tools()
+    if config.tool_names is not None:
+        offered = {tool["function"]["name"] for tool in world_tools}
+        unknown = sorted(set(config.tool_names) - offered)
+        if unknown:
+            raise ValueError(f"--tools: unknown tools {unknown}; the server has {sorted(offered)}")
+        world_tools = [tool for tool in world_tools if tool["function"]["name"] in config.tool_names]
     known = {tool["function"]["name"] for tool in world_tools}
     summary = world.call("get_world_summary")
     transcript = _Transcript(tool_calls=[world.last_call.index])
@@ -219,7 +276,7 @@ def answer_with_vlm(chat: ChatClient, tools_client: ToolClient, world: WorldHand
     force_submit = {"type": "function", "function": {"name": SUBMIT_TOOL}}
     messages: list[dict[str, Any]] = [
         {"role": "system", "content": SYSTEM_PROMPT},
-        {"role": "user", "content": _user_prompt(question, choices, summary)},
+        {"role": "user", "content": _first_message(_user_prompt(question, choices, summary), images)},
     ]
     budget_spent = config.max_tool_calls == 0
     while transcript.turns < config.max_turns:
@@ -227,7 +284,9 @@ def answer_with_vlm(chat: ChatClient, tools_client: ToolClient, world: WorldHand
         message, usage = chat.complete(messages, only_submit if budget_spent else all_tools, force_submit if budget_spent else "auto")
         transcript.add_usage(usage)
         calls = message.get("tool_calls") or []
-        assistant: dict[str, Any] = {"role": "assistant", "content": message.get("content")}
+        # Echo the turn back with "" for a null content: OpenAI allows null beside tool_calls, but
+        # llama-cpp-python's server refuses null and its chat template needs the key (a real model found this).
+        assistant: dict[str, Any] = {"role": "assistant", "content": message.get("content") or ""}
         if calls:
             assistant["tool_calls"] = calls
         messages.append(assistant)
@@ -245,6 +304,7 @@ def answer_with_vlm(chat: ChatClient, tools_client: ToolClient, world: WorldHand
             function = call.get("function") or {}
             name = function.get("name")
             arguments_text = function.get("arguments") or "{}"
+            transcript.model_calls += 1
             if name == SUBMIT_TOOL:
                 answer, problem = _parse_answer(arguments_text, len(choices))
                 if answer is not None:
@@ -254,6 +314,7 @@ def answer_with_vlm(chat: ChatClient, tools_client: ToolClient, world: WorldHand
                     transcript.rejected_answers += 1
                     content = json.dumps({"error": {"code": "invalid_answer", "message": problem}})
             elif name not in known:
+                transcript.outcome(str(name), False)
                 content = json.dumps({"error": {"code": "tool_not_found", "message": f"no tool {name!r}", "valid_ids": sorted(known)}})
             elif len(transcript.tool_calls) - 1 >= config.max_tool_calls:
                 budget_spent = True
@@ -263,12 +324,15 @@ def answer_with_vlm(chat: ChatClient, tools_client: ToolClient, world: WorldHand
                 try:
                     arguments = json.loads(arguments_text) if isinstance(arguments_text, str) else dict(arguments_text)
                 except json.JSONDecodeError as error:
+                    transcript.outcome(name, False)
                     content = json.dumps({"error": {"code": "invalid_json", "message": f"arguments are not JSON: {error.msg}"}})
                 else:
                     if not isinstance(arguments, dict):
+                        transcript.outcome(name, False)
                         content = json.dumps({"error": {"code": "invalid_arguments", "message": "arguments must be a JSON object"}})
                     else:
-                        _, body, record = world.call_raw(name, arguments)
+                        status, body, record = world.call_raw(name, arguments)
+                        transcript.outcome(name, status == 200)
                         transcript.tool_calls.append(record.index)
                         content = json.dumps(body, separators=(",", ":"))
                         if len(content) > config.max_result_chars:
@@ -280,7 +344,8 @@ def answer_with_vlm(chat: ChatClient, tools_client: ToolClient, world: WorldHand
             return _to_answer(question, choices, submitted, world, transcript, started)
         if budget_spent:
             messages.append({"role": "user", "content": f"The tool-call budget is spent. Call {SUBMIT_TOOL} now."})
-    raise VlmError(f"no valid answer after {config.max_turns} chat requests ({len(transcript.tool_calls) - 1} tool calls)")
+    raise VlmError(f"no valid answer after {config.max_turns} chat requests ({len(transcript.tool_calls) - 1} tool calls)",
+                   transcript.stats())
 
 
 def _to_answer(question: str, choices: Sequence[str], answer: Mapping[str, Any], world: WorldHandle, transcript: _Transcript,
@@ -297,5 +362,4 @@ def _to_answer(question: str, choices: Sequence[str], answer: Mapping[str, Any],
                      for k, text in enumerate(choices))
     return Answer(question, question_type, None, verdicts, method="vlm", tool_calls=tuple(transcript.tool_calls),
                   seconds=time.perf_counter() - started,
-                  extra={"chat_requests": transcript.turns, "model_tool_calls": len(transcript.tool_calls) - 1,
-                         "rejected_answers": transcript.rejected_answers, "usage": transcript.usage})
+                  extra=transcript.stats())

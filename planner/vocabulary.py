@@ -19,13 +19,18 @@ COLORS: tuple[str, ...] = ("gray", "red", "blue", "green", "brown", "yellow", "c
 MATERIALS: tuple[str, ...] = ("metal", "rubber")
 SHAPES: tuple[str, ...] = ("sphere", "cube", "cylinder")
 
-# Surface word -> (attribute kind, canonical value). Only spellings that
-# CLEVRER-style text uses (plus the British "grey"); no guessing of synonyms.
+# Surface word -> (attribute kind, canonical value): CLEVRER's spellings plus
+# the plain words a new user writes for the same thing ("grey", "ball",
+# "block", "metallic"). Each is unambiguous in a world of spheres, cubes and
+# cylinders; nothing else is guessed.
 ATTRIBUTE_WORDS: Mapping[str, tuple[AttributeKind, str]] = {
     **{color: ("color", color) for color in COLORS},
     "grey": ("color", "gray"),
     **{material: ("material", material) for material in MATERIALS},
+    "metallic": ("material", "metal"),
     **{shape: ("shape", shape) for shape in SHAPES},
+    "ball": ("shape", "sphere"),
+    "block": ("shape", "cube"),
 }
 
 # Head nouns of an object phrase that carry no attribute ("the red object").
@@ -54,22 +59,51 @@ EVENT_FILTERS: Mapping[EventKind, str] = {
 # predictive/counterfactual choices ("the cube collides with the sphere",
 # "the cube enters the scene"). A collision phrase is followed by its second
 # object.
+# Plain-word paraphrases ("hits", "bumps into", "leaves the scene", "would")
+# name the same events.
+_COLLISION_VERBS: tuple[tuple[str, ...], ...] = (
+    ("colliding", "with"), ("collides", "with"), ("collide", "with"), ("hits",), ("hit",), ("hitting",),
+    ("bumps", "into"), ("bump", "into"), ("bumping", "into"), ("runs", "into"), ("run", "into"),
+    ("crashes", "into"), ("crash", "into"),
+)
+_ENTER_VERBS: tuple[tuple[str, ...], ...] = (("enters", "the", "scene"), ("enter", "the", "scene"))
+_EXIT_VERBS: tuple[tuple[str, ...], ...] = (
+    ("exits", "the", "scene"), ("exit", "the", "scene"), ("leaves", "the", "scene"), ("leave", "the", "scene"),
+)
+FUTURE_MODALS: tuple[str, ...] = ("will", "would")
+
+
+def _with_modals(verbs: tuple[tuple[str, ...], ...], kind: EventKind) -> dict[tuple[str, ...], EventKind]:
+    """Each finite verb phrase, and its base form after "will"/"would" ("will hit")."""
+    table: dict[tuple[str, ...], EventKind] = {verb: kind for verb in verbs}
+    table.update({(modal, *verb): kind for verb in verbs for modal in FUTURE_MODALS})
+    return table
+
+
 SUBJECT_EVENT_PHRASES: Mapping[tuple[str, ...], EventKind] = {
-    ("colliding", "with"): "collision",
-    ("collides", "with"): "collision",
-    ("will", "collide", "with"): "collision",
+    **_with_modals(_COLLISION_VERBS, "collision"),
     ("entrance",): "in",
     ("entering", "the", "scene"): "in",
-    ("enters", "the", "scene"): "in",
-    ("will", "enter", "the", "scene"): "in",
+    **_with_modals(_ENTER_VERBS, "in"),
     ("exit",): "out",
     ("exiting", "the", "scene"): "out",
-    ("exits", "the", "scene"): "out",
-    ("will", "exit", "the", "scene"): "out",
+    ("leaving", "the", "scene"): "out",
+    **_with_modals(_EXIT_VERBS, "out"),
 }
 
 # Verb phrases closing a two-subject collision: "the cube and the sphere collide".
-PAIR_COLLISION_PHRASES: frozenset[tuple[str, ...]] = frozenset({("collide",), ("will", "collide")})
+PAIR_COLLISION_PHRASES: frozenset[tuple[str, ...]] = frozenset({
+    (*modal, *verb)
+    for modal in ((), ("will",), ("would",))
+    for verb in (("collide",), ("hit", "each", "other"), ("bump", "into", "each", "other"))
+})
+
+# How a question names the removal of an object, after "if <object>".
+REMOVAL_PHRASES: frozenset[tuple[str, ...]] = frozenset({
+    (aux, *verb) for aux in ("is", "were", "was") for verb in (("removed",), ("taken", "away"))
+})
+# "if we remove <object>", "if you remove <object>".
+REMOVER_WORDS: tuple[str, ...] = ("we", "you")
 
 # Openers of a wh-question: "which of the following", "which event", "what".
 WH_PHRASES: frozenset[tuple[str, ...]] = frozenset(

@@ -7,6 +7,7 @@ Endpoints (all JSON; see docs/server.md for a curl walkthrough):
 * ``POST /v1/worlds/{world_id}/tools/{tool_name}``       run a tool                    server/routes_tools.py
 * ``POST /v1/worlds``, ``GET /v1/worlds``, ``GET|DELETE /v1/worlds/{world_id}``         server/routes_worlds.py
 * ``GET  /v1/worlds/{world_id}/rollouts[/{rollout_id}]`` the rollout registry          server/routes_rollouts.py
+* ``POST /mcp``                                          MCP, Streamable HTTP          server/mcp.py
 
 Every error is the envelope of schemas/error.schema.json (server/errors.py),
 never a traceback. A new router is one line in ``include_routes``.
@@ -23,6 +24,7 @@ from fastapi.staticfiles import StaticFiles
 from server import routes_meta, routes_render, routes_rollouts, routes_tools, routes_worlds
 from server.errors import install_error_handlers
 from server.logs import get_logger
+from server.mcp import mount_mcp
 from server.middleware import RequestMiddleware
 from server.openapi import install_openapi
 from server.routes_meta import API_VERSION
@@ -80,6 +82,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.pool = pool
     install_error_handlers(app, logger)
     include_routes(app)
+    mount_mcp(app, registry, pool)  # POST /mcp: the Model Context Protocol (server/mcp.py)
     install_openapi(app, auth_required=bool(settings.api_key))
     if settings.cors_origins:  # off unless origins are listed: no browser page may call the API by default
         app.add_middleware(CORSMiddleware, allow_origins=list(settings.cors_origins), allow_methods=["GET", "POST", "DELETE"],

@@ -16,6 +16,7 @@ from tools.errors import ToolError
 
 BODY_METHODS = ("POST", "PUT", "PATCH")
 JSON_MEDIA_TYPES = ("application/json",)
+PROTECTED_PREFIXES = ("/v1", "/mcp")  # need the bearer token when PHYSMIND_API_KEY is set
 # Paths whose bodies are not JSON (a multipart upload, say): their routes check the type themselves.
 NON_JSON_BODY_PREFIXES: tuple[str, ...] = ()
 
@@ -112,7 +113,7 @@ class RequestMiddleware:
                          expected="header 'Content-Type: application/json'")
 
     def _authorize(self, path: str, headers: dict[str, str]) -> ToolError | None:
-        if self._api_key is None or not path.startswith("/v1"):
+        if self._api_key is None or not path.startswith(PROTECTED_PREFIXES):
             return None
         given = headers.get("authorization", "")
         scheme, _, token = given.partition(" ")

@@ -1,24 +1,25 @@
-"""Tool routes: the listings (OpenAI function calling, one tool's schemas) and one POST route per tool."""
+"""Tool routes: the listings (every major tool-calling API, one tool's schemas) and one POST route per tool."""
 
 from __future__ import annotations
 
-from typing import Callable
+from typing import Callable, Literal
 
-from fastapi import APIRouter, Request
+from fastapi import APIRouter, Query, Request
 from fastapi.responses import Response
 
 from server.contract import response_schema
 from server.errors import encoded_response, json_response, note
 from server.openapi_docs import responses
 from server.world_registry import pool_of
-from tools.registry import get_tool, inline_tool_schema, openai_tools, tool_registry
+from tools.listings import LISTING_FORMATS, tool_listing
+from tools.registry import get_tool, inline_tool_schema, tool_registry
 
 router = APIRouter(tags=["tools"])
 
 
 @router.get("/v1/tools", operation_id="list_tools", responses=responses(200, response_schema("tool_listing")))
-def list_tools() -> Response:
-    return json_response({"tools": openai_tools()})
+def list_tools(format: Literal[LISTING_FORMATS] = Query("openai", description="the tool-calling API to list the tools for")) -> Response:  # noqa: A002
+    return json_response({"format": format, "tools": tool_listing(format)})
 
 
 @router.get("/v1/tools/{tool_name}", operation_id="describe_tool", responses=responses(200, response_schema("tool_description")))

@@ -31,12 +31,18 @@ ToolFunction = Callable[[Any, Mapping[str, Any]], dict]
 
 @dataclass(frozen=True)
 class ToolSpec:
-    """A tool: ``run(session, args) -> result``; ``order`` sorts the public listing."""
+    """A tool: ``run(session, args) -> result``; ``order`` sorts the public listing.
+
+    ``read_only``: the tool only reads the world and its rollouts (repeating a
+    call changes nothing). A tool that is not read-only adds a rollout; no
+    tool deletes anything. MCP's tool annotations are derived from it.
+    """
 
     name: str
     description: str
     run: ToolFunction
     order: int = 100
+    read_only: bool = True
 
 
 @dataclass(frozen=True)
@@ -204,13 +210,29 @@ def validate_result(tool: RegisteredTool, result: Any) -> None:
         raise AssertionError(f"{tool.name} result violates its schema at {json_pointer(error.absolute_path)!r}: {error.message[:300]}")
 
 
+def without_null_optionals(args: Any, schema: Mapping[str, Any]) -> Any:
+    """``args`` without the optional properties whose value is null: null means "use the default".
+
+    OpenAI's strict mode (and MCP hosts built on it) must send every property,
+    so an omitted optional arrives as null. A null for a required property is
+    kept, so validation still reports it. Only the top level has optional
+    properties in the tool schemas; a non-object ``args`` is returned as is.
+    """
+    if not isinstance(args, dict):
+        return args
+    required = set(schema.get("required", ()))
+    return {key: value for key, value in args.items() if value is not None or key in required}
+
+
 def call_tool(name: str, session: Any, args: Any, *, validate_results: bool = True) -> dict:
     """Validate ``args``, run the tool on ``session``, validate its result.
 
+    A null optional argument takes its default (``without_null_optionals``).
     Raises ToolError for invalid arguments or unknown ids (never a traceback);
     a result that breaks its schema is a bug and raises AssertionError.
     """
     tool = get_tool(name)
+    args = without_null_optionals(args, tool.args_schema)
     validate_args(tool, args)
     try:
         result = tool.spec.run(session, args)

@@ -22,6 +22,7 @@ def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
 
 TOOL = ToolSpec(
     name=NAME,
+    read_only=False,  # adds a rollout to the world's registry
     order=7,
     description=(
         "Legacy flat form of simulate_edit with edit_type remove_object: remove object_id (optionally from "

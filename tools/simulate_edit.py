@@ -135,6 +135,7 @@ def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
 
 TOOL = ToolSpec(
     name=NAME,
+    read_only=False,  # adds a rollout to the world's registry
     order=1,
     description=(
         "Create a new rollout by editing the world and replaying its fitted dynamics. "

@@ -490,3 +490,43 @@ def test_clevrer_release_counterfactual_form_answers_like_the_canonical_form() -
                     assert execute(list(choice + release), scene) == ours
                     answers[ours] += 1
     assert answers["yes"] > 10 and answers["no"] > 10, answers  # both outcomes exercised
+
+
+# Plain-word paraphrases a new user writes, each with the CLEVRER wording it means.
+QUESTION_PARAPHRASES = [
+    ("What would happen if the red cube were removed?", "What will happen if the red cube is removed?"),
+    ("Which of the following would not happen without the blue block?", "Which of the following will not happen without the blue cube?"),
+    ("What happens if we remove the red ball?", "What will happen if the red sphere is removed?"),
+    ("If you remove the grey ball, what happens?", "If the gray sphere is removed, what will happen?"),
+    ("What would happen if the metallic cylinder was taken away?", "What will happen if the metal cylinder is removed?"),
+    ("What happens next?", "What will happen next?"),
+    ("What caused the collision between the red ball and the cube?",
+     "What is responsible for the collision between the red sphere and the cube?"),
+    ("Which of the following was not responsible for the ball's exit?",
+     "Which of the following is not responsible for the sphere's exit?"),
+]
+CHOICE_PARAPHRASES = [
+    ("The red ball hits the blue block", "The red sphere collides with the blue cube", "predictive"),
+    ("The red ball will hit the blue block", "The red sphere will collide with the blue cube", "predictive"),
+    ("The ball bumps into the cylinder", "The sphere collides with the cylinder", "counterfactual"),
+    ("The ball would run into the cylinder", "The sphere collides with the cylinder", "counterfactual"),
+    ("The ball and the block hit each other", "The sphere and the cube collide", "counterfactual"),
+    ("The block leaves the scene", "The cube exits the scene", "explanatory"),
+    ("the cube crashes into the sphere", "the cube's colliding with the sphere", "explanatory"),
+]
+
+
+@pytest.mark.parametrize(("plain", "canonical"), QUESTION_PARAPHRASES)
+def test_plain_word_questions_mean_the_clevrer_wording(plain: str, canonical: str) -> None:
+    assert parse_question(plain) == parse_question(canonical)
+
+
+@pytest.mark.parametrize(("plain", "canonical", "question_type"), CHOICE_PARAPHRASES)
+def test_plain_word_choices_mean_the_clevrer_wording(plain: str, canonical: str, question_type: str) -> None:
+    assert parse_choice(plain, question_type) == parse_choice(canonical, question_type)
+
+
+def test_paraphrase_errors_still_name_the_word() -> None:
+    with pytest.raises(ParseError) as caught:
+        parse_question("What would happen if the red cube were destroyed?")
+    assert caught.value.word == "were" and "were removed" in caught.value.expected

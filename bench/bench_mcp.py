@@ -1,4 +1,4 @@
-"""MCP tools/call latency next to the HTTP API's, over loopback (issue 14's target: p50 <= 5 ms for check_contact).
+"""MCP tools/call latency next to the HTTP API's, over loopback (target: p50 <= 5 ms for check_contact).
 
 Starts `physmind serve` on a free loopback port (and `physmind mcp` for stdio),
 registers the six-object world and times sequential calls of one tool:

@@ -1,4 +1,4 @@
-"""Render speed: overlay of a 128-frame video, top-down PNG and top-down replay (issue 16).
+"""Render speed: overlay of a 128-frame video, top-down PNG and top-down replay.
 
     MUJOCO_GL=egl .venv/bin/physmind synth --out /tmp/render_bench --scenes 3 --seed 1616 --workers 1
     nice -n 10 .venv/bin/python -m bench.bench_render /tmp/render_bench

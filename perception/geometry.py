@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from world.camera import backproject_to_height, pixel_rays, project  # the one owner of the pinhole model
+from world.camera import pixel_rays, project  # the one owner of the pinhole model
 from world.types import Camera
 
 

@@ -20,7 +20,8 @@ import numpy as np
 from scipy.signal import correlate
 
 from perception.background import FLOOR
-from perception.geometry import backproject_to_height, ground_jacobian, silhouette
+from perception.geometry import ground_jacobian, silhouette
+from world.camera import backproject_to_height
 from perception.types import Detection
 
 CUBE_YAW_STEP = math.radians(7.5)

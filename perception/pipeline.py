@@ -15,14 +15,13 @@ from pathlib import Path
 import numpy as np
 
 from perception.attributes import color_of, material_of
-from perception.background import estimate_background
-from perception.geometry import backproject_to_height, ray_depths, primitive_window, silhouette
+from perception.geometry import ray_depths, primitive_window, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
 from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter
 from perception.track import HungarianTracker
 from perception.types import Attributes, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
-from world.camera import footprint_visible
+from world.camera import backproject_to_height, footprint_visible
 from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
 from world.types import Camera, SHAPE_KINDS
 

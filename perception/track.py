@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from perception.geometry import backproject_to_height
+from world.camera import backproject_to_height
 from world.camera import project
 from perception.types import Detection, FrameSegments, TrackState
 from world.observations import DEFAULT_OBJECT_SIZE

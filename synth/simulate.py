@@ -92,7 +92,6 @@ def simulate(spec: SceneSpec, removed: int | None = None, horizon_frames: int | 
     angular = np.zeros((frames, n, 3))
     last_touch: dict[tuple[int, int], float] = {}
     collisions: list[Event] = []
-    dt = model.opt.timestep
     for frame in range(frames):
         for k in launches.get(frame, ()):
             _launch(data, k, by_id[object_ids[k]])

@@ -1,6 +1,6 @@
 """The CLI's promise on bad input: one line on stderr, exit code 2, never a traceback.
 
-One test per case of issue 15 (the serve cases are in tests/server/test_serve_cli.py).
+One test per bad-input case of the command line (the serve cases are in tests/server/test_serve_cli.py).
 """
 
 from __future__ import annotations

@@ -14,7 +14,6 @@ import json
 import pkgutil
 from dataclasses import dataclass, field
 from functools import lru_cache
-from pathlib import Path
 from typing import Any, Callable, Mapping
 
 import jsonschema

@@ -23,7 +23,7 @@ from synth.mjcf import TIMESTEP, contact_stiffness_damping
 from synth.physion.spec import FPS, PhaseSpec, TrialSpec
 from synth.scene import COLOR_RGB, camera_fovy_deg
 from world.scene3d.motion import ZONE_TOUCH_TOLERANCE, gap_to_static
-from world.scene3d.types import Body3D, StaticBox
+from world.scene3d.types import StaticBox
 from world.types import STANDARD_GRAVITY
 
 STEPS_PER_FRAME = int(round(1.0 / (FPS * TIMESTEP)))

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from perception.geometry import backproject_to_height, silhouette
+from perception.geometry import silhouette
+from world.camera import backproject_to_height
 from world.camera import project
 from world.io import load_camera
 

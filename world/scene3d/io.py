@@ -7,7 +7,6 @@ frames and static boxes.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
 from functools import lru_cache
 from typing import Any, Mapping

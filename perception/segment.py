@@ -15,13 +15,7 @@ from scipy import ndimage as ndi
 
 from perception.background import AMBIGUOUS, FLOOR, OBJECT, Background, estimate_background
 from perception.types import NEUTRAL, Detection, FrameSegments
-from world.types import COLORS
-
-# CLEVR's palette (sRGB), the colours the objects are painted with.
-PALETTE_RGB = {
-    "gray": (87, 87, 87), "red": (173, 35, 35), "blue": (42, 75, 215), "green": (29, 105, 20),
-    "brown": (129, 74, 25), "yellow": (255, 238, 51), "cyan": (41, 208, 208), "purple": (129, 38, 192),
-}
+from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, COLORS
 CHROMATIC = [c for c in COLORS if c != "gray"]
 _PROTOTYPES = np.array([np.asarray(PALETTE_RGB[c], float) / sum(PALETTE_RGB[c]) for c in CHROMATIC])
 _PROTOTYPE_LABELS = np.array([COLORS.index(c) for c in CHROMATIC])

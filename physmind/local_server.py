@@ -14,7 +14,7 @@ import tempfile
 import time
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Iterator
+from typing import Iterator, Mapping, Sequence
 
 import httpx
 
@@ -44,32 +44,44 @@ def local_server(data_dir: Path | None = None, timeout: float = 60.0, log_path: 
         port = free_port()
         env = {k: v for k, v in os.environ.items() if k != "PHYSMIND_API_KEY"}
         env.setdefault("PHYSMIND_LOG_LEVEL", "WARNING")
-        with open(log_file, "ab") as log:
-            process = subprocess.Popen(
-                [sys.executable, "-m", "physmind.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(directory)],
-                stdout=log, stderr=subprocess.STDOUT, env=env,
-            )
+        command = [sys.executable, "-m", "physmind.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(directory)]
         url = f"http://127.0.0.1:{port}"
-        try:
-            deadline = time.monotonic() + timeout
-            while True:
-                if process.poll() is not None:
-                    tail = log_file.read_text(errors="replace")[-2000:]
-                    raise RuntimeError(f"the tool server exited with code {process.returncode}:\n{tail}")
-                try:
-                    if httpx.get(url + "/healthz", timeout=2.0).status_code == 200:
-                        break
-                except httpx.TransportError:
-                    pass
-                if time.monotonic() > deadline:
-                    raise RuntimeError(f"the tool server did not answer {url}/healthz within {timeout:.0f} s (log: {log_file})")
-                time.sleep(0.1)
+        with loopback_process(command, env, log_file, url + "/healthz", "the tool server", timeout):
             yield url
-        finally:
-            if process.poll() is None:
-                process.terminate()
-                try:
-                    process.wait(timeout=15)
-                except subprocess.TimeoutExpired:
-                    process.kill()
-                    process.wait(timeout=5)
+
+
+@contextmanager
+def loopback_process(command: Sequence[str], env: Mapping[str, str], log_file: Path, ready_url: str, what: str,
+                     timeout: float, poll_seconds: float = 0.1) -> Iterator[subprocess.Popen]:
+    """Run ``command`` (a server on a loopback port), wait until ``ready_url`` answers 200, stop it on exit.
+
+    Its output goes to ``log_file``; ``what`` names it in errors.
+
+    Raises:
+        RuntimeError: the process exited, or ``ready_url`` did not answer within ``timeout`` s.
+    """
+    with open(log_file, "ab") as log:
+        process = subprocess.Popen(list(command), stdout=log, stderr=subprocess.STDOUT, env=dict(env))
+    try:
+        deadline = time.monotonic() + timeout
+        while True:
+            if process.poll() is not None:
+                tail = log_file.read_text(errors="replace")[-2000:]
+                raise RuntimeError(f"{what} exited with code {process.returncode}:\n{tail}")
+            try:
+                if httpx.get(ready_url, timeout=2.0).status_code == 200:
+                    break
+            except httpx.TransportError:
+                pass
+            if time.monotonic() > deadline:
+                raise RuntimeError(f"{what} did not answer {ready_url} within {timeout:.0f} s (log: {log_file})")
+            time.sleep(poll_seconds)
+        yield process
+    finally:
+        if process.poll() is None:
+            process.terminate()
+            try:
+                process.wait(timeout=15)
+            except subprocess.TimeoutExpired:
+                process.kill()
+                process.wait(timeout=5)

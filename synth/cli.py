@@ -9,7 +9,12 @@ Heavy imports (MuJoCo, PyAV) happen inside the handlers.
 from __future__ import annotations
 
 import argparse
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
+from typing import Any, Callable, Sequence
+
+from tqdm import tqdm
 
 
 def register(subparsers) -> None:
@@ -80,28 +85,11 @@ def run_generate(args: argparse.Namespace) -> int:
     if args.looks not in LOOK_FAMILIES:
         raise ValueError(f"--looks: expected one of {', '.join(LOOK_FAMILIES)}, got {args.looks!r}")
     import synth  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
-    from tqdm import tqdm
-
     from synth.generate import write_questions
 
     args.out.mkdir(parents=True, exist_ok=True)
     jobs = [(str(args.out), args.seed, index, args.looks) for index in range(args.start_index, args.start_index + args.scenes)]
-    results = []
-    with tqdm(total=len(jobs), desc="synth", unit="scene") as bar:
-        if args.workers == 1:
-            for job in jobs:
-                results.append(_one_scene(job))
-                bar.update(1)
-        else:
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(max_workers=args.workers, mp_context=context) as pool:
-                futures = [pool.submit(_one_scene, job) for job in jobs]
-                for future in as_completed(futures):
-                    results.append(future.result())
-                    bar.update(1)
+    results = run_jobs(_one_scene, jobs, args.workers, "synth", "scene")
     results.sort(key=lambda r: r[1].scene_index)
     path = write_questions(args.out, [entry for entry, _ in results])
     print(summary_table([stats for _, stats in results]))
@@ -171,3 +159,22 @@ def run_contact_sheet(args: argparse.Namespace) -> int:
     write_png(png, tile(images, len(frames)))
     print(f"wrote {png} ({len(chosen)} videos x {len(frames)} frames)")
     return 0
+
+
+def run_jobs(function: Callable[[Any], Any], jobs: Sequence[Any], workers: int, desc: str, unit: str) -> list[Any]:
+    """``function(job)`` for every job, in this process (workers == 1) or in ``workers`` spawned
+    processes (spawn: each loads MuJoCo afresh, no forked GL state), with a progress bar.
+    Results come in completion order."""
+    results = []
+    with tqdm(total=len(jobs), desc=desc, unit=unit) as bar:
+        if workers == 1:
+            for job in jobs:
+                results.append(function(job))
+                bar.update(1)
+        else:
+            context = multiprocessing.get_context("spawn")
+            with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+                for future in as_completed([pool.submit(function, job) for job in jobs]):
+                    results.append(future.result())
+                    bar.update(1)
+    return results

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.looks import DEFAULT_LOOK, CameraLook, Look
-from world.types import COLORS, MATERIALS, SHAPE_KINDS, Camera
+from world.types import CLEVR_PALETTE_RGB, COLORS, MATERIALS, SHAPE_KINDS, Camera
 
 # --- fixed scene constants -------------------------------------------------
 
@@ -27,17 +27,7 @@ OBSERVED_FRAMES = 128  # frames written to the video, as CLEVRER
 FUTURE_FRAMES = 52  # >= 2 s simulated after the video for predictive ground truth
 OBJECT_HALF_SIZE = 0.2  # m; one size as CLEVRER: sphere radius, cube half side, cylinder radius and half height
 
-# CLEVR's public palette (sRGB 0..255), used by CLEVRER's renders.
-COLOR_RGB: dict[str, tuple[int, int, int]] = {
-    "gray": (87, 87, 87),
-    "red": (173, 35, 35),
-    "blue": (42, 75, 215),
-    "green": (29, 105, 20),
-    "brown": (129, 74, 25),
-    "yellow": (255, 238, 51),
-    "cyan": (41, 208, 208),
-    "purple": (129, 38, 192),
-}
+COLOR_RGB = CLEVR_PALETTE_RGB  # the paint of each colour name (world.types owns the palette)
 
 # --- documented physical ranges (each drawn uniformly per object) ----------
 # Densities, kg/m^3: natural/synthetic rubber 900-1300; the "metal" is a light

@@ -22,6 +22,12 @@ import numpy as np
 ShapeKind = Literal["sphere", "cube", "cylinder"]
 SHAPE_KINDS: tuple[str, ...] = ("sphere", "cube", "cylinder")
 COLORS: tuple[str, ...] = ("gray", "red", "blue", "green", "brown", "yellow", "cyan", "purple")
+# CLEVR's public palette (sRGB 0..255): the paint of each colour name, as CLEVRER renders it.
+# The generator paints with it; perception uses its chromaticities as colour prototypes.
+CLEVR_PALETTE_RGB: dict[str, tuple[int, int, int]] = {
+    "gray": (87, 87, 87), "red": (173, 35, 35), "blue": (42, 75, 215), "green": (29, 105, 20),
+    "brown": (129, 74, 25), "yellow": (255, 238, 51), "cyan": (41, 208, 208), "purple": (129, 38, 192),
+}
 MATERIALS: tuple[str, ...] = ("rubber", "metal")
 EventKind = Literal["collision", "in", "out", "stop"]
 EVENT_KINDS: tuple[str, ...] = ("collision", "in", "out", "stop")

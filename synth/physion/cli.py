@@ -11,6 +11,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from synth.cli import run_jobs
+
 
 def _one_trial(job: tuple[str, int, str, int, int]):
     from synth.physion.generate import generate_trial
@@ -27,7 +29,6 @@ def run_physion(args: argparse.Namespace) -> int:
     if args.start_index < 0 or args.workers < 1 or args.seed < 0:
         raise ValueError("--start-index and --seed must be >= 0, --workers >= 1")
     import synth.physion  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
-    from tqdm import tqdm
 
     from synth.physion.generate import summary_table, write_trials
     from synth.physion.spec import CATEGORIES
@@ -36,21 +37,7 @@ def run_physion(args: argparse.Namespace) -> int:
     per_category = args.start_index + args.scenes
     jobs = [(str(args.out), args.seed, category, k, per_category)
             for category in CATEGORIES for k in range(args.start_index, per_category)]
-    results = []
-    with tqdm(total=len(jobs), desc="synth physion", unit="trial") as bar:
-        if args.workers == 1:
-            for job in jobs:
-                results.append(_one_trial(job))
-                bar.update(1)
-        else:
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(max_workers=args.workers, mp_context=context) as pool:
-                for future in as_completed([pool.submit(_one_trial, job) for job in jobs]):
-                    results.append(future.result())
-                    bar.update(1)
+    results = run_jobs(_one_trial, jobs, args.workers, "synth physion", "trial")
     path = write_trials(args.out, [entry for entry, _ in results])
     print(summary_table([stats for _, stats in results]))
     print(f"wrote {len(results)} trials to {args.out} ({path})")

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from perception.segment import pixel_hue_labels
 from perception.types import NEUTRAL, Detection
 from world.types import COLORS
 
@@ -24,8 +25,6 @@ METAL_HIGHLIGHT_RATIO = {"sphere": 1.6, "cylinder": 1.8, "cube": 2.0}
 
 def color_of(detections: list[Detection], frames: np.ndarray) -> str:
     """Colour name by a pixel-weighted vote of the palette labels of the detections' pixels."""
-    from perception.segment import pixel_hue_labels
-
     votes = np.zeros(len(COLORS) + 1)
     for det in detections:
         labels = pixel_hue_labels(frames[det.frame][det.ys, det.xs])

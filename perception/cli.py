@@ -25,6 +25,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    # Lazy: loaded only when this command runs, so `physmind --help` and the other commands start fast.
     from perception.pipeline import perceive_frames
     from perception.video import read_video
     from world.io import load_camera
@@ -38,6 +39,7 @@ def run(args: argparse.Namespace) -> int:
     for track in observations.objects:
         print(f"  object {track.id}: {track.color} {track.material} {track.shape.kind}, frames {int(track.frames[0])}-{int(track.frames[-1])}")
     if args.debug_dir is not None:
+        # Lazy: loaded only when this command runs, so `physmind --help` and the other commands start fast.
         from perception.debug import write_debug
 
         for path in write_debug(args.debug_dir, frames, intermediates["lifted"], camera):

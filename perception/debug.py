@@ -14,6 +14,7 @@ import numpy as np
 from perception.types import LiftedTrack
 from world.camera import project
 from world.types import Camera
+from perception.pipeline import instance_map
 
 _TRACK_COLOURS = np.array([[255, 64, 64], [64, 200, 255], [255, 220, 0], [120, 255, 120], [255, 128, 255],
                            [255, 160, 64], [160, 120, 255], [0, 255, 200]], dtype=np.uint8)
@@ -89,8 +90,6 @@ def overlay(frame: np.ndarray, instance: np.ndarray, lifted: list[LiftedTrack], 
 
 def contact_sheet(frames: np.ndarray, lifted: list[LiftedTrack], camera: Camera, picks: list[int], columns: int = 4) -> np.ndarray:
     """Tile overlays of the chosen frames into one image."""
-    from perception.pipeline import instance_map
-
     tiles = [overlay(frames[f], instance_map(camera, lifted, f), lifted, f, camera) for f in picks]
     height, width, _ = tiles[0].shape
     rows = (len(tiles) + columns - 1) // columns

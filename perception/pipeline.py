@@ -10,12 +10,14 @@ their own implementations to :func:`perceive_frames`.
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from perception.attributes import color_of, material_of
-from perception.geometry import ray_depths, primitive_window, silhouette
+from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
 from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter
 from perception.track import HungarianTracker
@@ -23,7 +25,7 @@ from perception.types import Attributes, FrameSegments, LiftedTrack, Lifter, Seg
 from perception.video import read_video
 from world.camera import backproject_to_height, footprint_visible
 from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
-from world.types import Camera, SHAPE_KINDS
+from world.types import SHAPE_KINDS, Camera
 
 MAX_ATTRIBUTE_FRAMES = 6  # isolated frames used to decide shape / material
 MIN_SHAPE_SCORE = 0.4  # mean silhouette overlap below which a track is not an object
@@ -82,8 +84,6 @@ class PrimitiveLifter:
              camera: Camera, *, progress: bool = False) -> list[LiftedTrack]:
         iterator = tracks
         if progress:
-            from tqdm import tqdm
-
             iterator = tqdm(tracks, desc="lift", unit="object")
         lifted = []
         for track in iterator:
@@ -166,8 +166,6 @@ def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: i
 def _union(keep: LiftedTrack, other: LiftedTrack) -> LiftedTrack:
     """One track from two tracklets of one object: all frames of both; on a frame both hold, the
     sample with the larger weight; attributes of ``keep`` (the better supported tracklet)."""
-    from dataclasses import replace
-
     frames = np.union1d(keep.frames, other.frames)
     rows = {}
     for track in (other, keep):  # keep's samples win ties
@@ -235,8 +233,6 @@ def _associate(lifted: list[LiftedTrack], size: float) -> list[LiftedTrack]:
 
 def _renumber(lifted: list[LiftedTrack]) -> list[LiftedTrack]:
     """Ids 0..K-1 in order of first appearance."""
-    from dataclasses import replace
-
     ordered = sorted(lifted, key=lambda t: (int(t.frames[0]), t.id))
     return [replace(t, id=k) for k, t in enumerate(ordered)]
 

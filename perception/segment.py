@@ -12,10 +12,22 @@ from __future__ import annotations
 
 import numpy as np
 from scipy import ndimage as ndi
+from tqdm import tqdm
 
-from perception.background import AMBIGUOUS, FLOOR, OBJECT, Background, estimate_background
+from perception.background import (
+    AMBIGUOUS,
+    BRIGHT_OBJECT,
+    CHROMA_OBJECT,
+    DARK_OBJECT,
+    FLOOR,
+    FLOOR_RATIO,
+    OBJECT,
+    Background,
+    estimate_background,
+)
 from perception.types import NEUTRAL, Detection, FrameSegments
 from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, COLORS
+
 CHROMATIC = [c for c in COLORS if c != "gray"]
 _PROTOTYPES = np.array([np.asarray(PALETTE_RGB[c], float) / sum(PALETTE_RGB[c]) for c in CHROMATIC])
 _PROTOTYPE_LABELS = np.array([COLORS.index(c) for c in CHROMATIC])
@@ -41,8 +53,6 @@ def pixel_hue_labels(rgb: np.ndarray) -> np.ndarray:
 
 def classify_frame(frame: np.ndarray, background: Background) -> np.ndarray:
     """(H, W) uint8 FLOOR / AMBIGUOUS / OBJECT labels; only pixels that differ from the background are examined."""
-    from perception.background import BRIGHT_OBJECT, CHROMA_OBJECT, DARK_OBJECT, FLOOR_RATIO
-
     reference = background.image
     candidate = np.zeros(frame.shape[:2], dtype=bool)
     for channel in range(3):  # per channel: avoids a large (H, W, 3) temporary
@@ -144,7 +154,5 @@ class ClassicalSegmenter:
         background = estimate_background(frames) if background is None else background
         iterator = range(frames.shape[0])
         if progress:
-            from tqdm import tqdm
-
             iterator = tqdm(iterator, desc="segment", unit="frame")
         return [segment_frame(frames[f], background, f) for f in iterator]

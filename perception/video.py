@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import av
 import numpy as np
-
 
 
 def read_video(path: str | Path, *, max_frames: int | None = None) -> tuple[np.ndarray, float]:
@@ -15,8 +15,6 @@ def read_video(path: str | Path, *, max_frames: int | None = None) -> tuple[np.n
     Raises FileNotFoundError for a missing file and ValueError for a file that
     is not a decodable video or holds no frames.
     """
-    import av
-
     path = Path(path)
     if not path.exists():
         raise FileNotFoundError(f"no such video file: {path}")

@@ -21,6 +21,7 @@ import httpx
 
 from physmind import __version__
 from physmind.errors import CliError
+from planner.client import ToolCallError
 
 # Modules that provide ``register(subparsers)``; missing ones are skipped so a
 # partial install still serves the subcommands it has.
@@ -54,7 +55,6 @@ def _user_error_types() -> tuple[type[BaseException], ...]:
     """Errors that are the user's input or environment, never a bug: one line, exit code 2."""
     types: list[type[BaseException]] = [CliError, ValueError, OSError, httpx.HTTPError]
     try:  # the planner's client reports a server's structured refusal
-        from planner.client import ToolCallError
 
         types.append(ToolCallError)
     except ModuleNotFoundError:

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Iterable, Literal, Mapping, Sequence
 
 from planner.answer import Answer, ChoiceAnswer
@@ -40,9 +40,8 @@ from planner.client import ToolCallError, WorldHandle
 from planner.grammar import ParseError
 from planner.grounding import Grounding, WorldObject, failed, ground_program, objects_from_summary
 from planner.parser import parse_choice, parse_question
-from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
-
 from planner.program import EventRecord, ObjectRecord, ProgramError, ProgramScene, causal_ancestors, execute
+from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
 
 Mode = Literal["execute", "trajectory_only"]
 MODES: tuple[str, ...] = ("execute", "trajectory_only")
@@ -541,8 +540,6 @@ def _removed_object(program: Sequence[str], groundings: Sequence[Grounding]) -> 
 
 
 def _with_seconds(answer: Answer, seconds: float) -> Answer:
-    from dataclasses import replace
-
     return replace(answer, seconds=seconds)
 
 

@@ -62,6 +62,7 @@ from planner.vocabulary import (
     QUESTION_TYPES,
     QuestionType,
 )
+from planner.vocabulary import ATTRIBUTE_WORDS, COLORS, MATERIALS, SHAPES
 
 Program = tuple[str, ...]
 
@@ -429,8 +430,6 @@ __all__ = [
 
 def question_guide() -> str:
     """What can be asked, in words: the forms the grammar accepts and its vocabulary (for ``ask --help``)."""
-    from planner.vocabulary import ATTRIBUTE_WORDS, COLORS, MATERIALS, SHAPES
-
     synonyms = ", ".join(f"{word} = {value}" for word, (_, value) in ATTRIBUTE_WORDS.items() if word != value)
     return "\n".join([
         "What can be asked (one verdict per --choice; words in any case):",

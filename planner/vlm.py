@@ -31,6 +31,8 @@ import jsonschema
 
 from planner.answer import Answer, ChoiceAnswer
 from planner.client import ToolClient, WorldHandle
+from planner.grammar import ParseError
+from planner.parser import parse_question
 
 SUBMIT_TOOL = "submit_answer"
 
@@ -350,9 +352,6 @@ def answer_with_vlm(chat: ChatClient, tools_client: ToolClient, world: WorldHand
 
 def _to_answer(question: str, choices: Sequence[str], answer: Mapping[str, Any], world: WorldHandle, transcript: _Transcript,
                started: float) -> Answer:
-    from planner.grammar import ParseError
-    from planner.parser import parse_question
-
     try:
         question_type: str | None = parse_question(question).question_type
     except ParseError:

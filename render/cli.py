@@ -15,6 +15,7 @@ import json
 import sys
 import time
 from pathlib import Path
+from dataclasses import replace
 
 OUTPUT_KINDS = (".mp4", ".png")
 
@@ -50,8 +51,7 @@ def _edit_arguments(text: str, index: int) -> dict:
 
 
 def run(args: argparse.Namespace) -> int:
-    from dataclasses import replace
-
+    # Lazy: the engine, Pillow and PyAV load only for `physmind render`.
     from tools.errors import ToolError
     from tools.registry import call_tool
     from tools.session import MemoryRolloutStore, WorldSession

@@ -22,6 +22,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
 
 
 def serve_stdio(args: argparse.Namespace) -> int:
+    # Lazy: the MCP SDK and the server stack load only for `physmind mcp`.
     import anyio
     from mcp.server.stdio import stdio_server
 

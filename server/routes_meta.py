@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import swagger_ui_bundle
 from fastapi import APIRouter
 from fastapi.openapi.docs import get_swagger_ui_html
 from fastapi.responses import HTMLResponse, Response
@@ -35,6 +36,4 @@ def docs() -> HTMLResponse:
 
 def swagger_assets() -> StaticFiles:
     """The Swagger UI files of the swagger-ui-bundle-v2 package, for mounting at DOCS_ASSETS_PATH."""
-    import swagger_ui_bundle
-
     return StaticFiles(directory=Path(swagger_ui_bundle.swagger_ui_path))

@@ -115,6 +115,7 @@ def _rollouts(request: Request, world_id: str, rollout_id: str, reference: str):
 def _render(request: Request, key: tuple, world_id: str, rollout_id: str, reference: str, width: int,
             draw: Callable[[object], bytes]) -> tuple[bytes, str]:
     """Bytes of ``draw(board)`` for the comparison board, from the cache when present; (bytes, "hit"|"miss")."""
+    # Lazy: Pillow and PyAV load at the first picture request, not in every worker process.
     from render.compose import comparison
 
     limits, cache = _state(request)
@@ -151,6 +152,7 @@ async def rollout_plot(request: Request, world_id: str, rollout_id: str, referen
                        frame: int | None = Query(None, ge=0, le=1_000_000, description="draw this frame (default: last frame, full trails)"),
                        width: int = Query(480, ge=PANEL_WIDTHS[0], le=PANEL_WIDTHS[1], description="panel width, pixels")) -> Response:
     """Top-down still of a rollout beside its reference, with the event timeline (diverging events highlighted)."""
+    # Lazy: Pillow and PyAV load at the first picture request, not in every worker process.
     from render.compose import png_bytes
 
     def draw(board) -> bytes:
@@ -164,6 +166,7 @@ async def rollout_plot(request: Request, world_id: str, rollout_id: str, referen
 @router.get(VIDEO_PATH, operation_id="rollout_video", response_class=Response, responses=_responses("video/mp4"))
 async def rollout_video(request: Request, world_id: str, rollout_id: str, reference: str = REFERENCE) -> Response:
     """Top-down h264 replay of a rollout beside its reference, with a cursor on the event timeline."""
+    # Lazy: Pillow and PyAV load at the first picture request, not in every worker process.
     from render.video import encode_mp4
 
     limits, _ = _state(request)

@@ -87,6 +87,7 @@ def serve(args: argparse.Namespace) -> int:
         raise ValueError(f"--port: expected 1..65535, got {args.port}")
     if args.workers is not None and args.workers < 0:
         raise ValueError(f"--workers: expected an integer >= 0, got {args.workers}")
+    # Lazy: loaded only when this command runs, so `physmind --help` and the other commands start fast.
     from server.settings import Settings
 
     settings = Settings.from_env(data_dir=args.data_dir, workers=args.workers)
@@ -96,6 +97,7 @@ def serve(args: argparse.Namespace) -> int:
         raise ValueError(f"--host {args.host}: refusing to serve a non-loopback address without an API key; "
                          "set PHYSMIND_API_KEY (clients send 'Authorization: Bearer <key>') or pass --insecure")
     check_bind(args.host, args.port)
+    # Lazy: loaded only when this command runs, so `physmind --help` and the other commands start fast.
     import uvicorn
 
     from server.app import create_app

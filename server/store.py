@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from world.io import edit_to_tool_record, rollout_from_dict, rollout_to_dict, world_from_dict
 from world.types import Rollout, World
 
 SCHEMA_SQL = """
@@ -75,8 +76,6 @@ def _decode(blob: bytes) -> dict:
 
 
 def _edits_of(rollout: Rollout) -> list[dict[str, Any]]:
-    from world.io import edit_to_tool_record
-
     return [edit_to_tool_record(e) for e in rollout.edits]
 
 
@@ -159,8 +158,6 @@ class SqliteStore:
     # -- worlds ---------------------------------------------------------------
     def create_world(self, world_id: str, world: World, document: dict, base: Rollout, name: str | None = None) -> None:
         """Store a world and its base rollout atomically (``name`` defaults to the document's id)."""
-        from world.io import rollout_to_dict
-
         now = time.time()
         rollout_blob = _encode(rollout_to_dict(base))
         with self._transaction() as conn:
@@ -206,7 +203,6 @@ class SqliteStore:
             document = self.world_document(world_id)
             if document is None:
                 return None
-            from world.io import world_from_dict
 
             world = world_from_dict(document)
             self._remember(key, world)
@@ -246,7 +242,6 @@ class SqliteStore:
             ).fetchone()
             if row is None:
                 return None
-            from world.io import rollout_from_dict
 
             rollout = rollout_from_dict(_decode(row[0]))
             self._remember(key, rollout)
@@ -259,8 +254,6 @@ class SqliteStore:
         return None if row is None else _decode(row[0])
 
     def put_rollout(self, world_id: str, rollout: Rollout, parent_id: str | None) -> None:
-        from world.io import rollout_to_dict
-
         blob = _encode(rollout_to_dict(rollout))
         try:
             with self._transaction() as conn:

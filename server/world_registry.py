@@ -11,19 +11,22 @@ import uuid
 from typing import Any
 
 import jsonschema
+import numpy as np
 from fastapi import Request
 from jsonschema.exceptions import best_match
 
 from schemas import read_schema
 from server.costs import check_cost, request_cost, tool_call_cost
 from server.errors import parse_json
-from server.settings import Settings
 from server.routes_render import picture_links
+from server.settings import Settings
 from server.store import SqliteStore, WorldGone
 from tools.common import boundaries, event_record
 from tools.errors import ToolError, echo, invalid_argument, json_pointer, limit_exceeded, not_found
 from tools.registry import call_tool, get_tool, inline_refs, validation_error_to_tool_error
 from tools.session import BASE_ROLLOUT_ID, MemoryRolloutStore, WorldSession, default_horizon_frames
+from world.io import world_from_dict
+from world.rollout import simulate
 from world.types import Rollout
 
 WORLD_SCHEMA_NAME = "world.schema.json"
@@ -67,9 +70,6 @@ class WorldRegistry:
             return self._sessions.setdefault(world_id, session)
 
     def create_world(self, body: Any) -> dict:
-        from world.io import world_from_dict
-        from world.rollout import simulate
-
         if not isinstance(body, dict):
             raise invalid_argument(None, "", "the request body must be a JSON object", '{"world": {...world document...}}')
         for key in body:
@@ -194,8 +194,6 @@ class WorldRegistry:
 
 def _require_finite_rollout(rollout: Rollout) -> None:
     """ValueError if any state of ``rollout`` is NaN or infinite."""
-    import numpy as np
-
     for name in ("times", "positions", "velocities", "yaw"):
         values = getattr(rollout, name, None)
         if values is not None and not np.all(np.isfinite(np.asarray(values, dtype=float))):

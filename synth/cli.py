@@ -57,6 +57,7 @@ def _int_list(text: str, name: str) -> list[int]:
 
 
 def _one_scene(job: tuple[str, int, int, str]):
+    # Lazy: MuJoCo loads in the worker process, after synth/__init__ has set MUJOCO_GL.
     from synth.generate import generate_scene
 
     out, seed, index, looks = job
@@ -65,6 +66,7 @@ def _one_scene(job: tuple[str, int, int, str]):
 
 def run_generate(args: argparse.Namespace) -> int:
     if getattr(args, "suite", "clevrer") == "physion":
+        # Lazy: loaded only when this command runs, so `physmind --help` and the other commands start fast.
         from synth.physion.cli import run_physion
 
         return run_physion(args)
@@ -80,6 +82,7 @@ def run_generate(args: argparse.Namespace) -> int:
         raise ValueError(f"--workers: expected an integer >= 1, got {args.workers}")
     if args.seed < 0:
         raise ValueError(f"--seed: expected an integer >= 0, got {args.seed}")
+    # Lazy: loaded only when this command runs, so `physmind --help` and the other commands start fast.
     from synth.looks import LOOK_FAMILIES
 
     if args.looks not in LOOK_FAMILIES:
@@ -131,6 +134,7 @@ def summary_table(stats: list) -> str:
 
 
 def run_contact_sheet(args: argparse.Namespace) -> int:
+    # Lazy: loaded only when this command runs, so `physmind --help` and the other commands start fast.
     from perception.debug import write_png
     from synth.contact_sheet import tile
     from synth.render import read_mp4

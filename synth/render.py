@@ -10,6 +10,7 @@ import os
 from fractions import Fraction
 from pathlib import Path
 
+import av
 import numpy as np
 
 os.environ.setdefault("MUJOCO_GL", "egl")  # headless rendering unless the user chose a backend
@@ -64,8 +65,6 @@ def write_mp4(path: Path, frames: np.ndarray, fps: float, crf: int = 18) -> None
     same decoded video; ``crf`` is x264's constant rate factor (higher =
     stronger compression; the default look uses 18).
     """
-    import av
-
     path.parent.mkdir(parents=True, exist_ok=True)
     with av.open(str(path), mode="w") as container:
         stream = container.add_stream("libx264", rate=Fraction(fps).limit_denominator(1000))
@@ -82,7 +81,5 @@ def write_mp4(path: Path, frames: np.ndarray, fps: float, crf: int = 18) -> None
 
 def read_mp4(path: Path) -> np.ndarray:
     """Decode a video to (F, H, W, 3) uint8 RGB frames."""
-    import av
-
     with av.open(str(path)) as container:
         return np.stack([frame.to_ndarray(format="rgb24") for frame in container.decode(video=0)])

@@ -20,6 +20,7 @@ import jsonschema
 from jsonschema.exceptions import ValidationError, best_match
 from referencing import Registry, Resource
 
+import tools as package
 from schemas import read_schema, schema_names
 from tools.errors import ToolError, invalid_argument, json_pointer, not_found
 
@@ -80,8 +81,6 @@ def _validator(schema: dict) -> Any:
 @lru_cache(maxsize=1)
 def tool_registry() -> dict[str, RegisteredTool]:
     """All tools found in the ``tools`` package, in listing order."""
-    import tools as package
-
     specs: list[ToolSpec] = []
     for info in pkgutil.iter_modules(package.__path__):
         module = importlib.import_module(f"tools.{info.name}")

@@ -13,7 +13,9 @@ from functools import lru_cache
 from pathlib import Path
 from typing import Any, Mapping
 
+import jsonschema
 import numpy as np
+from jsonschema.exceptions import best_match
 
 from schemas import read_schema
 from world.types import Anchor, Body, BodyState, Camera, Edit, Event, Rollout, Shape, World
@@ -24,16 +26,12 @@ ROLLOUT_FORMAT = "physmind.rollout/1"
 
 @lru_cache(maxsize=None)
 def _validator(name: str):
-    import jsonschema
-
     schema = read_schema(name)
     jsonschema.Draft202012Validator.check_schema(schema)
     return jsonschema.Draft202012Validator(schema)
 
 
 def _validate(document: object, name: str, what: str) -> None:
-    from jsonschema.exceptions import best_match
-
     errors = list(_validator(name).iter_errors(document))
     if errors:
         # best_match descends into oneOf/anyOf to the most specific failing field.

@@ -15,6 +15,7 @@ from synth.cli import run_jobs
 
 
 def _one_trial(job: tuple[str, int, str, int, int]):
+    # Lazy: MuJoCo loads in the worker process, after MUJOCO_GL is set.
     from synth.physion.generate import generate_trial
 
     out, seed, category, k, per_category = job

@@ -26,9 +26,11 @@ from typing import Callable, Mapping, Sequence
 import numpy as np
 from scipy.optimize import least_squares
 
+from world.contacts import footprint_distance
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide
-from world.observations import ObjectTrack, Observations
 from world.identify.segments import CandidateCollision, find_candidate_collisions
+from world.observations import ObjectTrack, Observations
+from world.rollout import footprint_of, simulate
 from world.types import STANDARD_GRAVITY, Anchor, Body, BodyState, World
 
 MASS_RATIO_BOUNDS = (0.05, 20.0)  # paper, Appendix A: 0.05 < m_i / m_j < 20
@@ -300,9 +302,6 @@ SEPARATION_GAP = 1e-5
 
 def _separated(bodies: tuple[Body, ...], passes: int = 20) -> tuple[Body, ...]:
     """Move apart bodies that enter at the same time with overlapping footprints (minimal, symmetric)."""
-    from world.contacts import footprint_distance
-    from world.rollout import footprint_of
-
     positions = [list(b.initial.position) for b in bodies]
     moved = False
     for _ in range(passes):
@@ -355,8 +354,6 @@ def _positions(
     world: World, horizon_frames: int, simulator: Callable[..., object] | None = None
 ) -> tuple[np.ndarray, np.ndarray, tuple[int, ...]]:
     """Simulated (T, N, 2) plane positions, (T, N) active mask and body order."""
-    from world.rollout import simulate
-
     rollout = (simulator or simulate)(world, (), horizon_frames)
     return rollout.positions[:, :, :2], rollout.active, rollout.body_ids
 
@@ -570,9 +567,6 @@ def _anchor(world: World, track_fits: Mapping[int, TrackFit], observations: Obse
     would overlap another body is dropped (the replay is kept) rather than
     inventing a push.
     """
-    from world.contacts import footprint_distance
-    from world.rollout import footprint_of, simulate
-
     last = observations.num_frames - 1
     if last < 1:
         return None

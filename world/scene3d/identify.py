@@ -121,20 +121,23 @@ def _body(tracks: Tracks3D, body_id: int) -> Body3D:
     return next(b for b in tracks.bodies if b.id == body_id)
 
 
+def _phase_bodies(tracks: Tracks3D, phase_index: int):
+    """(index in the phase, body, positions (T, 3) m with NaN where unseen, seen mask (T,)) per body of a phase."""
+    phase = tracks.phases[phase_index]
+    for k, body_id in enumerate(phase.body_ids):
+        positions = phase.positions[:, k]
+        yield k, _body(tracks, body_id), positions, np.all(np.isfinite(positions), axis=1)
+
+
 def _physical_faces(phase) -> list[Face]:
     return [face for box in phase.static_objects if box.role != "zone" for face in box.faces()]
 
 
 def friction_measurements(tracks: Tracks3D, phase_index: int, gravity: float) -> list[PropertyEstimate]:
     """One friction estimate per sliding run of each body in a phase."""
-    phase = tracks.phases[phase_index]
-    faces = _physical_faces(phase)
-    g_vec = np.array([0.0, 0.0, -gravity])
+    phase, faces, g_vec = tracks.phases[phase_index], _physical_faces(tracks.phases[phase_index]), np.array([0.0, 0.0, -gravity])
     out = []
-    for k, body_id in enumerate(phase.body_ids):
-        body = _body(tracks, body_id)
-        pos = phase.positions[:, k]
-        seen = np.all(np.isfinite(pos), axis=1)
+    for k, body, pos, seen in _phase_bodies(tracks, phase_index):
         touching = _touching(body, faces, np.nan_to_num(pos))
         speed = np.linalg.norm(np.gradient(np.nan_to_num(pos), phase.times, axis=0), axis=1)
         free = seen & ~_near_other_bodies(tracks, phase_index, k)
@@ -156,7 +159,7 @@ def friction_measurements(tracks: Tracks3D, phase_index: int, gravity: float) ->
                 accel, accel_std = 2.0 * coef[2], 2.0 * math.sqrt(cov[2, 2])
                 load = gravity * face.normal[2]
                 mu = (float(np.dot(g_vec, direction)) - accel) / load
-                out.append(PropertyEstimate("friction", body_id, mu, accel_std / load, stop - start, phase=phase_index))
+                out.append(PropertyEstimate("friction", body.id, mu, accel_std / load, stop - start, phase=phase_index))
     return out
 
 
@@ -213,14 +216,9 @@ def _cut(start: int, stop: int, breaks: set[int]) -> list[tuple[int, int]]:
 
 def bounce_measurements(tracks: Tracks3D, phase_index: int, gravity: float) -> list[PropertyEstimate]:
     """Restitution (and impact friction) from consecutive ballistic arcs around a static contact."""
-    phase = tracks.phases[phase_index]
-    faces = _physical_faces(phase)
-    g_vec = np.array([0.0, 0.0, -gravity])
+    phase, faces, g_vec = tracks.phases[phase_index], _physical_faces(tracks.phases[phase_index]), np.array([0.0, 0.0, -gravity])
     out = []
-    for k, body_id in enumerate(phase.body_ids):
-        body = _body(tracks, body_id)
-        pos = phase.positions[:, k]
-        seen = np.all(np.isfinite(pos), axis=1)
+    for k, body, pos, seen in _phase_bodies(tracks, phase_index):
         flying = seen & ~_touching(body, faces, np.nan_to_num(pos)).any(axis=1) & ~_near_other_bodies(tracks, phase_index, k)
         flying, breaks = _split_at_impacts(phase.times, pos, flying, gravity)
         arcs = [(a, b) for a0, b0 in _runs(flying) for a, b in _cut(a0, b0, breaks) if b - a >= MIN_ARC_FRAMES]
@@ -264,13 +262,13 @@ def bounce_measurements(tracks: Tracks3D, phase_index: int, gravity: float) -> l
             var_in = sum(cov_a[axis][1, 1] * n[axis] ** 2 for axis in range(3))
             var_out = sum(cov_b[axis][1, 1] * n[axis] ** 2 for axis in range(3))
             e_std = abs(e) * math.sqrt(var_in / vn_in**2 + var_out / vn_out**2)
-            out.append(PropertyEstimate("restitution", body_id, e, e_std, (a1 - a0) + (b1 - b0), phase=phase_index))
+            out.append(PropertyEstimate("restitution", body.id, e, e_std, (a1 - a0) + (b1 - b0), phase=phase_index))
             dv_t = (v_out - vn_out * n) - (v_in - vn_in * n)
             mu = float(np.linalg.norm(dv_t)) / ((1.0 + e) * -vn_in)
             mu_std = math.sqrt(var_in + var_out) / ((1.0 + e) * -vn_in)
-            out.append(PropertyEstimate("impact_friction", body_id, mu, mu_std, 1, phase=phase_index))
+            out.append(PropertyEstimate("impact_friction", body.id, mu, mu_std, 1, phase=phase_index))
             duration = (tb[0] + t_out) - (ta[0] + t_in)  # the arcs reach the surface this far apart
-            out.append(PropertyEstimate("impact_duration", body_id, duration, 1e-3, 1, phase=phase_index))
+            out.append(PropertyEstimate("impact_duration", body.id, duration, 1e-3, 1, phase=phase_index))
     return out
 
 

@@ -120,7 +120,7 @@ def test_mcp_needs_the_api_key_when_set(server_factory, tmp_path, world_document
                 async with Client(streamable_http_client(secured.url + "/mcp", http_client=http)) as mcp_client:
                     return len((await mcp_client.list_tools()).tools)
 
-        assert asyncio.run(list_with({"Authorization": "Bearer s3cret"})) == 11
+        assert asyncio.run(list_with({"Authorization": "Bearer s3cret"})) == len(tool_registry()) + 2  # + list_worlds, create_world
         unauthorized = httpx.post(secured.url + "/mcp", json={"jsonrpc": "2.0", "id": 1, "method": "tools/list"})
         assert unauthorized.status_code == 401 and unauthorized.json()["error"]["code"] == "unauthorized"
     finally:

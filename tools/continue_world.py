@@ -52,6 +52,9 @@ def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
 
 TOOL = ToolSpec(
     name=NAME,
+    # Read-only for a caller: the continuation is a function of the world, cached under the fixed id
+    # continue-<H>, so repeating a call returns the same rollout and changes nothing.
+    read_only=True,
     order=9,
     description=(
         "Continue the factual world (no edit) to horizon_frames frames: what happens next. The continuation starts "

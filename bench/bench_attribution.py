@@ -53,8 +53,22 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
+import multiprocessing
+from concurrent.futures import ProcessPoolExecutor, as_completed
+
+from tqdm import tqdm
+
 from bench.metrics import GroundTruth, score_world  # noqa: E402
+from perception.pipeline import perceive
+from physmind.local_server import local_server
+from planner.client import ToolClient
+from planner.evaluate import evaluate, format_table, load_dataset
+from planner.executor import ExecutorConfig
+from world.identify import segments
+from world.identify.fit import identify
+from world.io import load_camera, world_to_dict
 from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape  # noqa: E402
+from world.rollout import simulate
 
 ROWS = ("from video", "oracle tracks", "swap identities", "swap attributes", "swap positions", "swap entry/exit", "swap collisions")
 SWAPS = ROWS[2:]
@@ -236,8 +250,6 @@ def swap_entry_exit(perceived: Observations, truth: Truth, assignment: dict[int,
 def true_candidates(observations: Observations, truth: Truth, gravity: float = 9.81, friction_prior: float = 0.3) -> list:
     """The true observed collisions as identification candidates (same velocity windows as
     world.identify.segments.find_candidate_collisions, bounded by the body's other true collisions)."""
-    from world.identify import segments
-
     tracks = {t.id: t for t in observations.objects}
     fps = observations.fps
     frames_of: dict[int, list[int]] = {}
@@ -267,10 +279,6 @@ def true_candidates(observations: Observations, truth: Truth, gravity: float = 9
 
 def _fit(observations: Observations, truth_path: Path, truth: Truth, candidates: list | None = None) -> dict:
     """identify -> world document + the identification report against MuJoCo."""
-    from world.identify.fit import identify
-    from world.io import world_to_dict
-    from world.rollout import simulate
-
     started = time.perf_counter()
     if candidates is None:
         world, report = identify(observations)
@@ -295,8 +303,6 @@ def _fit(observations: Observations, truth_path: Path, truth: Truth, candidates:
 def attribute_scene(job: tuple[str, int]) -> dict:
     """All rows of one scene; a failure is recorded per row, never raised."""
     root, index = Path(job[0]), job[1]
-    from perception.pipeline import perceive
-    from world.io import load_camera
 
     name = f"{index:05d}"
     truth_path = root / "ground_truth" / f"scene_{name}.json"
@@ -380,12 +386,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cached-only", action="store_true", help="report on the scenes already in --cache only (no new perception)")
     parser.add_argument("--json", type=Path, default=None, help="write the tables and per-scene reports here")
     args = parser.parse_args(argv)
-    from tqdm import tqdm
 
-    from planner.client import ToolClient
-    from planner.evaluate import evaluate, format_table, load_dataset
-    from planner.executor import ExecutorConfig
-    from planner.local_server import local_server
 
     entries = load_dataset(args.data, limit=args.limit)
     if args.cached_only:
@@ -414,9 +415,6 @@ def main(argv: list[str] | None = None) -> int:
                 keep(attribute_scene(job))
                 bar.update()
         else:
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
             with ProcessPoolExecutor(args.workers, mp_context=multiprocessing.get_context("spawn")) as pool:
                 for future in as_completed([pool.submit(attribute_scene, job) for job in todo]):
                     keep(future.result())

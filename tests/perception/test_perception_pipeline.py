@@ -8,10 +8,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from perception.pipeline import instance_map, perceive_frames
+from perception.pipeline import perceive_frames
 from perception.video import read_video
 from world.io import load_camera
-from synth.masks import decode_mask
+from tests.perception.coverage import whole_in_view_coverage
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "synth"
 RADIUS = 0.2
@@ -36,29 +36,9 @@ def perceived(request):
     return index, camera, observations, inter["lifted"], masks, annotation
 
 
-def _coverage(camera, lifted, masks):
-    """true object id -> list of (frame, perceived id) with mask IoU >= 0.5, on frames where the object is whole in view."""
-    covering: dict[int, list[tuple[int, int]]] = {}
-    for entry in masks:
-        frame = entry["frame_index"]
-        ids = instance_map(camera, lifted, frame)
-        for obj in entry["objects"]:
-            mask = decode_mask(obj["mask"])
-            if obj["area"] < 50 or mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any():
-                continue
-            best = (0.0, -1)
-            for pid in np.unique(ids[mask]):
-                if pid < 0:
-                    continue
-                pm = ids == pid
-                best = max(best, ((pm & mask).sum() / (pm | mask).sum(), int(pid)))
-            covering.setdefault(obj["object_id"], []).append((frame, best[1] if best[0] >= 0.5 else -1))
-    return covering
-
-
 def test_every_object_found_with_one_stable_identity(perceived):
     index, camera, observations, lifted, masks, _ = perceived
-    covering = _coverage(camera, lifted, masks)
+    covering = whole_in_view_coverage(camera, lifted, masks)
     all_objects = {o["object_id"] for entry in masks for o in entry["objects"]}
     assert set(covering) == all_objects, f"scene {index}: objects never whole in view"
     for object_id, seq in covering.items():
@@ -73,7 +53,7 @@ def test_every_object_found_with_one_stable_identity(perceived):
 
 
 def _matching(camera, lifted, masks):
-    covering = _coverage(camera, lifted, masks)
+    covering = whole_in_view_coverage(camera, lifted, masks)
     return {object_id: max(set(p for _, p in seq if p >= 0), key=[p for _, p in seq].count) for object_id, seq in covering.items()}
 
 

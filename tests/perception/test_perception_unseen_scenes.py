@@ -12,7 +12,7 @@ import pytest
 from perception.pipeline import perceive_frames
 from perception.video import read_video
 from synth.generate import generate_scene
-from synth.masks import decode_mask
+from tests.perception.coverage import whole_in_view_coverage
 from world.io import load_camera
 
 SEED = 902113  # used by no fixture, no benchmark and no tuning
@@ -33,22 +33,8 @@ def unseen_scene(tmp_path_factory, request):
 
 def _covering(camera, lifted, masks) -> dict[int, list[int]]:
     """true object id -> perceived id per frame where the object is whole in view (-1: no track with mask IoU >= 0.5)."""
-    from perception.pipeline import instance_map
-
-    covering: dict[int, list[int]] = {}
-    for entry in masks:
-        ids = instance_map(camera, lifted, entry["frame_index"])
-        for obj in entry["objects"]:
-            mask = decode_mask(obj["mask"])
-            if obj["area"] < 50 or mask[0].any() or mask[-1].any() or mask[:, 0].any() or mask[:, -1].any():
-                continue
-            best = (0.0, -1)
-            for pid in np.unique(ids[mask]):
-                if pid >= 0:
-                    pm = ids == pid
-                    best = max(best, ((pm & mask).sum() / (pm | mask).sum(), int(pid)))
-            covering.setdefault(obj["object_id"], []).append(best[1] if best[0] >= 0.5 else -1)
-    return {k: v for k, v in covering.items() if len(v) >= MIN_WHOLE_FRAMES}
+    covering = whole_in_view_coverage(camera, lifted, masks)
+    return {k: [pid for _, pid in seq] for k, seq in covering.items() if len(seq) >= MIN_WHOLE_FRAMES}
 
 
 @pytest.mark.slow

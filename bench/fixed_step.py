@@ -19,7 +19,8 @@ import numpy as np
 
 from world.contacts import footprint_distance
 from world.edits import apply_edits
-from world.rollout import default_horizon, footprint_of, frame_of, pair_restitution
+from world.rollout import default_horizon, footprint_of, pair_restitution
+from world.timebase import frame_of
 from world.types import Edit, Event, Rollout, World
 
 

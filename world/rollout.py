@@ -37,7 +37,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of  # noqa: F401 - frame_of re-exported
+from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of
 from world.camera import footprint_visible, view_events
 from world.contacts import CIRCLE, SQUARE, Footprint, PlanarMotion, closing, footprint_distance, predict_contact
 from world.edits import apply_edits

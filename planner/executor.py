@@ -35,7 +35,7 @@ import time
 from dataclasses import dataclass, replace
 from typing import Any, Iterable, Literal, Mapping, Sequence
 
-from planner.answer import Answer, ChoiceAnswer
+from planner.answer import Answer, ChoiceAnswer, readable
 from planner.client import ToolCallError, WorldHandle
 from planner.grammar import ParseError
 from planner.grounding import Grounding, WorldObject, failed, ground_program, objects_from_summary
@@ -437,7 +437,8 @@ class VideoExecutor:
         if isinstance(result.get("base_comparison"), Mapping):
             change = f", versus base: {result['base_comparison'].get('change')}"
         return (f"check_contact({a}, {b}) on rollout {rollout_id!r} frames {frames['frame_start']}..{frames['frame_end']}: "
-                f"{result.get('status')} (first frame {result.get('first_frame')}, nearest {result.get('nearest_distance')} m{change})",
+                f"{result.get('status')} (first frame {readable(result.get('first_frame'))}, "
+                f"nearest {readable(result.get('nearest_distance'))} m{change})",
                 self.world.last_call.index)
 
 

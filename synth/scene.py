@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.looks import DEFAULT_LOOK, CameraLook, Look
+from world.camera import backproject_to_height, project_with_depth  # the one owner of the pinhole model
 from world.types import CLEVR_PALETTE_RGB, COLORS, MATERIALS, SHAPE_KINDS, Camera
 
 # --- fixed scene constants -------------------------------------------------
@@ -153,27 +154,9 @@ def camera_fovy_deg(camera: Camera) -> float:
     return math.degrees(2.0 * math.atan((camera.height / 2.0) / camera.fy))
 
 
-def project_points(camera: Camera, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Project world points to pixels.
-
-    Args:
-        points: (M, 3) world coordinates, metres.
-    Returns:
-        pixels (M, 2) (u right, v down; OpenCV pixel centres) and depth (M,) m
-        along the optical axis (<= 0 means behind the camera).
-    """
-    rotation = np.asarray(camera.rotation)
-    in_camera = (np.asarray(points, dtype=float) - np.asarray(camera.position)) @ rotation
-    depth = in_camera[:, 2]
-    safe = np.where(np.abs(depth) < 1e-9, 1e-9, depth)
-    u = camera.fx * in_camera[:, 0] / safe + camera.cx
-    v = camera.fy * in_camera[:, 1] / safe + camera.cy
-    return np.stack([u, v], axis=1), depth
-
-
 def inside_view(camera: Camera, points: np.ndarray) -> np.ndarray:
     """(M,) bool: the point (object centre) projects inside the image, in front of the camera."""
-    pixels, depth = project_points(camera, points)
+    pixels, depth = project_with_depth(camera, points)
     return (
         (depth > 0)
         & (pixels[:, 0] >= -0.5)
@@ -181,19 +164,6 @@ def inside_view(camera: Camera, points: np.ndarray) -> np.ndarray:
         & (pixels[:, 1] >= -0.5)
         & (pixels[:, 1] <= camera.height - 0.5)
     )
-
-
-def backproject_to_height(camera: Camera, pixels: np.ndarray, height: float) -> np.ndarray:
-    """Intersect the viewing rays of ``pixels`` (M, 2) with the plane z = height; (M, 3) m."""
-    rotation = np.asarray(camera.rotation)
-    rays_cam = np.stack(
-        [(pixels[:, 0] - camera.cx) / camera.fx, (pixels[:, 1] - camera.cy) / camera.fy, np.ones(len(pixels))],
-        axis=1,
-    )
-    rays = rays_cam @ rotation.T
-    origin = np.asarray(camera.position)
-    scale = (height - origin[2]) / rays[:, 2]
-    return origin + rays * scale[:, None]
 
 
 def camera_from_pose(distance: float, tilt_deg: float, yaw_deg: float, fovy_deg: float, target: np.ndarray) -> Camera:

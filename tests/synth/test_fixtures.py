@@ -17,7 +17,8 @@ from synth.masks import decode_mask
 from synth.questions import object_references
 from schemas import read_schema
 from synth.scene import (DENSITY_RANGE, OBJECT_HALF_SIZE, RESTITUTION_RANGE, SLIDING_FRICTION_RANGE,
-                         SPHERE_SLIDING_FRICTION_RANGE, _shape_volume, inside_view, project_points)
+                         SPHERE_SLIDING_FRICTION_RANGE, _shape_volume, inside_view)
+from world.camera import project_with_depth
 from world.types import Camera
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -294,7 +295,7 @@ def _sphere_centres_on_their_masks(index: int) -> int:
                 continue
             track = next(o for o in gt["trajectory"]["objects"] if o["object_id"] == obj["object_id"])
             centre = np.array(track["location"][frame["frame_index"]])
-            pixel, _ = project_points(camera, centre[None])
+            pixel, _ = project_with_depth(camera, centre[None])
             x, y, w, h = obj["bbox"]
             if x <= 1 or y <= 1 or x + w >= camera.width - 1 or y + h >= camera.height - 1:
                 continue

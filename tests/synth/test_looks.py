@@ -24,7 +24,8 @@ from synth.looks import (
     sample_look,
 )
 from synth.render import read_mp4, render_scene, write_mp4
-from synth.scene import CAMERA_TARGET, camera_geometry, inside_view, project_points, sample_scene
+from synth.scene import CAMERA_TARGET, camera_geometry, inside_view, sample_scene
+from world.camera import project_with_depth
 from synth.simulate import simulate
 
 DATA = Path(__file__).resolve().parents[2] / "tests" / "data" / "synth"
@@ -133,7 +134,7 @@ def test_each_camera_parameter_moves_the_camera(base_spec, field, factor):
         assert after["object_pixels"] < before["object_pixels"]
     else:
         target = np.array([camera_look.target])
-        assert np.allclose(project_points(look_camera(changed), target)[0], project_points(look_camera(camera_look), target)[0], atol=1e-6)
+        assert np.allclose(project_with_depth(look_camera(changed), target)[0], project_with_depth(look_camera(camera_look), target)[0], atol=1e-6)
         assert not np.allclose(look_camera(changed).position, look_camera(camera_look).position, atol=1e-3)
     # The scene sampler really uses the look's camera.
     spec = sample_scene(np.random.default_rng(5), 5, dataclasses.replace(base_spec.look, camera=changed))
@@ -191,7 +192,7 @@ def test_object_count_and_partly_visible_objects():
         for obj in spec.objects:
             if obj.role == "entering":
                 continue
-            pixel, _ = project_points(spec.camera, np.array([obj.position]))
+            pixel, _ = project_with_depth(spec.camera, np.array([obj.position]))
             assert inside_view(spec.camera, np.array([obj.position]))[0]  # its centre is in view ...
             radius = camera_geometry(spec.camera)["object_pixels"] / 2
             u, v = pixel[0]

@@ -45,6 +45,16 @@ from world.types import Body, BodyState, Shape, World
 REPO = Path(__file__).resolve().parents[1]
 
 
+
+def run_threads(threads: list[threading.Thread]) -> float:
+    """Start every thread, wait for all; the wall time in seconds."""
+    started = time.perf_counter()
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    return time.perf_counter() - started
+
 def six_object_world_document() -> dict:
     cyl, ball = Shape("cylinder", radius=0.2, half_height=0.2), Shape("sphere", radius=0.2)
     bodies = (
@@ -141,13 +151,7 @@ def throughput(url: str, path: str, body: dict, clients: int, max_requests: int,
                 done["ok" if status == 200 else "errors"] += 1
         conn.close()
 
-    threads = [threading.Thread(target=worker) for _ in range(clients)]
-    started = time.perf_counter()
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    elapsed = time.perf_counter() - started
+    elapsed = run_threads([threading.Thread(target=worker) for _ in range(clients)])
     return {"rps": done["ok"] / elapsed, "requests": done["ok"], "errors": done["errors"], "seconds": elapsed}
 
 
@@ -199,13 +203,7 @@ def mix_load(url: str, tools: str, clients: int, duration: float, api_key: str |
             time.sleep(0.05)
         conn.close()
 
-    threads = [threading.Thread(target=worker, args=(i,)) for i in range(clients)] + [threading.Thread(target=prober)]
-    started = time.perf_counter()
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    elapsed = time.perf_counter() - started
+    elapsed = run_threads([threading.Thread(target=worker, args=(i,)) for i in range(clients)] + [threading.Thread(target=prober)])
     ok = statuses.get(200, 0)
     return {"rps": ok / elapsed, "seconds": elapsed, "statuses": dict(sorted(statuses.items())),
             "transport_errors": transport_errors["count"], "first_transport_error": transport_errors["first"],

@@ -31,7 +31,7 @@ SUBCOMMAND_MODULES: tuple[str, ...] = (
     "perception.cli",
     "world.identify.cli",
     "physmind.commands",
-    "server.serve_cli",
+    "physmind.serve",  # server.serve_cli's `serve` with world builds (POST /v1/builds) wired in
     "server.mcp_cli",
     "planner.cli",
     "render.cli",

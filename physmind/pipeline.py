@@ -15,6 +15,7 @@ only ever receives the resulting world documents.
 from __future__ import annotations
 
 import json
+import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from dataclasses import dataclass
@@ -77,6 +78,23 @@ def build_world(path: Path, source: Source, camera=None, progress: bool = False)
     document = world_to_dict(world)
     return BuildResult(document, source, finished - started, perceived - started, finished - perceived,
                        float(rmse))
+
+
+def build_world_from_video_bytes(video: bytes, camera_document: dict[str, Any], suffix: str = ".mp4") -> dict[str, Any]:
+    """An uploaded video (its bytes) and camera document -> ``{"world": document, "info": BuildResult.info()}``.
+
+    Takes bytes, not a path, so it runs the same on a Dask worker of another machine.
+    Raises ValueError (one line) for a camera or video it cannot build from.
+    """
+    camera = camera_from_dict(camera_document)
+    with tempfile.TemporaryDirectory(prefix="physmind-build-") as folder:
+        path = Path(folder) / f"video{suffix}"
+        path.write_bytes(video)
+        try:
+            result = build_world(path, "video", camera)
+        except ValueError as error:  # name the upload, not the temporary file
+            raise ValueError(str(error).replace(str(path), "the uploaded video")) from None
+    return {"world": result.world, "info": result.info()}
 
 
 # -- building worlds -------------------------------------------------------------------

@@ -7,6 +7,7 @@ Endpoints (all JSON; see docs/server.md for a curl walkthrough):
 * ``POST /v1/worlds/{world_id}/tools/{tool_name}``       run a tool                    server/routes_tools.py
 * ``POST /v1/worlds``, ``GET /v1/worlds``, ``GET|DELETE /v1/worlds/{world_id}``         server/routes_worlds.py
 * ``GET  /v1/worlds/{world_id}/rollouts[/{rollout_id}]`` the rollout registry          server/routes_rollouts.py
+* ``POST /v1/builds``, ``GET /v1/builds[/{build_id}]``   build a world from a video     server/routes_builds.py
 * ``POST /mcp``                                          MCP, Streamable HTTP          server/mcp.py
 
 Every error is the envelope of schemas/error.schema.json (server/errors.py),
@@ -21,7 +22,8 @@ from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi.staticfiles import StaticFiles
 
-from server import routes_meta, routes_render, routes_rollouts, routes_tools, routes_worlds
+from server import routes_builds, routes_meta, routes_render, routes_rollouts, routes_tools, routes_worlds
+from server.builds import BuildBackend, BuildJobs
 from server.errors import install_error_handlers
 from server.logs import get_logger
 from server.mcp import mount_mcp
@@ -45,24 +47,33 @@ def include_routes(app: FastAPI) -> None:
     app.include_router(routes_worlds.router)
     app.include_router(routes_rollouts.router)
     app.include_router(routes_render.router)
+    app.include_router(routes_builds.router)
     app.mount("/viewer", StaticFiles(directory=routes_render.VIEWER_DIR, html=True), name="viewer")
 
 
-def create_app(settings: Settings | None = None) -> FastAPI:
-    """The FastAPI app with its SQLite registry under ``settings.data_dir``."""
+def create_app(settings: Settings | None = None, build_backend: BuildBackend | None = None) -> FastAPI:
+    """The FastAPI app with its SQLite registry under ``settings.data_dir``.
+
+    build_backend: how POST /v1/builds builds worlds (handed in by the composition
+    root, physmind/serve.py); without one, builds answer 503 builds_unavailable.
+    """
     settings = settings or Settings.from_env()
     data_lock = lock_data_dir(settings.data_dir)
     store = open_store(settings.database_path)
     registry = WorldRegistry(store, settings)
     pool = WorkerPool(settings, registry)
+    builds = BuildJobs(settings, store, pool, build_backend)
+    builds.start()  # here, not in the lifespan: a Dask LocalCluster must start outside the event loop
     logger = get_logger(settings.log_level)
 
     @asynccontextmanager
     async def lifespan(_: FastAPI):
         logger.info("startup", extra={"fields": {"data_dir": str(settings.data_dir), "auth": bool(settings.api_key),
-                                                  "tools": list(tool_registry())}})
+                                                  "tools": list(tool_registry()),
+                                                  "builds": build_backend.where if build_backend else None}})
         pool.warm_up()
         yield
+        builds.shutdown()
         pool.shutdown()
         store.close()
         data_lock.close()
@@ -80,6 +91,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     app.state.registry = registry
     app.state.store = store
     app.state.pool = pool
+    app.state.builds = builds
     install_error_handlers(app, logger)
     include_routes(app)
     mount_mcp(app, registry, pool)  # POST /mcp: the Model Context Protocol (server/mcp.py)

@@ -1,5 +1,5 @@
 """Pure ASGI middleware: request ids, trusted Host (400), bearer auth (401), JSON-only bodies (415),
-body size limit (413) and upload timeout (408), JSON access log."""
+cross-origin uploads (403), body size limit (413) and upload timeout (408), JSON access log."""
 
 from __future__ import annotations
 
@@ -17,8 +17,9 @@ from tools.errors import ToolError
 BODY_METHODS = ("POST", "PUT", "PATCH")
 JSON_MEDIA_TYPES = ("application/json",)
 PROTECTED_PREFIXES = ("/v1", "/mcp")  # need the bearer token when PHYSMIND_API_KEY is set
-# Paths whose bodies are not JSON (a multipart upload, say): their routes check the type themselves.
-NON_JSON_BODY_PREFIXES: tuple[str, ...] = ()
+# Paths whose bodies are not JSON (the multipart video upload): their routes check the type themselves,
+# their bodies are limited by PHYSMIND_MAX_UPLOAD_BYTES, and a browser may not post them cross-site.
+UPLOAD_PREFIXES: tuple[str, ...] = ("/v1/builds",)
 
 
 def host_name(host_header: str) -> str:
@@ -66,10 +67,14 @@ class RequestMiddleware:
 
         path = scope.get("path", "")
         try:
+            method = scope.get("method", "")
+            upload = method in BODY_METHODS and path.startswith(UPLOAD_PREFIXES)
             rejection = (self._check_host(headers) or self._authorize(path, headers)
-                         or self._check_content_type(scope.get("method", ""), path, headers))
+                         or (self._check_origin(headers) if upload else self._check_content_type(method, headers)))
             if rejection is None:
-                rejection, receive = await self._limit_body(headers, receive)
+                limit = ((self.settings.max_upload_bytes, "PHYSMIND_MAX_UPLOAD_BYTES") if upload
+                         else (self.settings.max_request_bytes, "PHYSMIND_MAX_REQUEST_BYTES"))
+                rejection, receive = await self._limit_body(headers, receive, *limit)
             if rejection is not None:
                 await error_response(rejection, request_id)(scope, receive, send_with_id)
             else:
@@ -98,9 +103,19 @@ class RequestMiddleware:
                          message=f"Host {name[:80]!r} is not one this server answers to",
                          expected=f"one of {list(accepted)} (add names with PHYSMIND_TRUSTED_HOSTS or --trusted-host)")
 
-    def _check_content_type(self, method: str, path: str, headers: dict[str, str]) -> ToolError | None:
+    def _check_origin(self, headers: dict[str, str]) -> ToolError | None:
+        """A multipart POST is one a cross-site page may send without a preflight; browsers always add
+        Origin to it, so an upload from an origin not on the CORS allow-list never reaches a route."""
+        origin = headers.get("origin")
+        if origin is None or origin in self.settings.cors_origins:
+            return None
+        return ToolError(code="forbidden_origin", tool=None, pointer="", status=403,
+                         message=f"uploads from the browser origin {origin[:80]!r} are not allowed",
+                         expected="a client without an Origin header, or an origin listed in PHYSMIND_CORS_ORIGINS")
+
+    def _check_content_type(self, method: str, headers: dict[str, str]) -> ToolError | None:
         """Only application/json bodies: a cross-site form or text/plain POST never reaches a route."""
-        if method not in BODY_METHODS or path.startswith(NON_JSON_BODY_PREFIXES):
+        if method not in BODY_METHODS:
             return None
         has_body = headers.get("content-length", "0") != "0" or "transfer-encoding" in headers
         content_type = headers.get("content-type")
@@ -122,12 +137,12 @@ class RequestMiddleware:
         return ToolError(code="unauthorized", tool=None, pointer="", status=401,
                          message="missing or wrong bearer token", expected="header 'Authorization: Bearer <PHYSMIND_API_KEY>'")
 
-    async def _limit_body(self, headers: dict[str, str], receive: Callable) -> tuple[ToolError | None, Callable]:
-        limit = self.settings.max_request_bytes
+    async def _limit_body(self, headers: dict[str, str], receive: Callable, limit: int, setting: str) -> tuple[ToolError | None, Callable]:
 
         def too_large(size: str) -> ToolError:
             return ToolError(code="payload_too_large", tool=None, pointer="", status=413,
-                             message=f"request body of {size} bytes exceeds the limit of {limit} bytes",
+                             message=f"request body of {size} bytes exceeds the limit of {limit} bytes"
+                                     f" ({setting})",
                              expected=f"a body of at most {limit} bytes", extra={"limit": limit})
 
         declared = headers.get("content-length")

@@ -14,6 +14,7 @@ import ipaddress
 import socket
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 from server import settings as settings_module
 
@@ -24,7 +25,8 @@ def environment_help() -> str:
     return "environment variables:\n" + "\n".join(f"  {line}" for line in lines)
 
 
-def register(subparsers: argparse._SubParsersAction) -> None:
+def register(subparsers: argparse._SubParsersAction) -> argparse.ArgumentParser:
+    """Add ``serve``; returns its parser so the composition root (physmind/serve.py) can add the build options."""
     parser = subparsers.add_parser(
         "serve",
         help="serve worlds and rollout tools over HTTP",
@@ -44,6 +46,7 @@ def register(subparsers: argparse._SubParsersAction) -> None:
                         help="allow cross-origin browser calls from this origin (repeatable; default: CORS off)")
     parser.add_argument("--workers", type=int, default=None, help="worker processes for the tools (default: CPU count; 0 = threads)")
     parser.set_defaults(handler=serve)
+    return parser
 
 
 def uvicorn_log_config(level: str) -> dict:
@@ -82,7 +85,8 @@ def check_bind(host: str, port: int) -> None:
             raise ValueError(f"--host/--port: {host}:{port} {reason}") from None
 
 
-def serve(args: argparse.Namespace) -> int:
+def serve(args: argparse.Namespace, build_backend: Any = None) -> int:
+    """Run the server; ``build_backend`` (a server.builds.BuildBackend) enables POST /v1/builds."""
     if not 0 < args.port < 65536:
         raise ValueError(f"--port: expected 1..65535, got {args.port}")
     if args.workers is not None and args.workers < 0:
@@ -102,7 +106,7 @@ def serve(args: argparse.Namespace) -> int:
 
     from server.app import create_app
 
-    app = create_app(settings)  # DataDirError (a ValueError) for an unusable or busy data directory
+    app = create_app(settings, build_backend)  # DataDirError (a ValueError) for an unusable or busy data directory
     # Our middleware writes one JSON line per request; uvicorn's access log would duplicate it.
     uvicorn.run(app, host=args.host, port=args.port, access_log=False, log_level=settings.log_level.lower(),
                 log_config=uvicorn_log_config(settings.log_level), timeout_keep_alive=5)

@@ -18,6 +18,10 @@ PHYSMIND_MAX_PENDING        calls queued or running in the workers; more answer 
 PHYSMIND_MAX_STORAGE_BYTES  size of the SQLite files above which creating answers 507 (default 2 GiB)
 PHYSMIND_MAX_RENDER_FRAMES  longest rollout drawn by plot.png / video.mp4; longer answers 422 (default 1500)
 PHYSMIND_RENDER_CACHE_BYTES memory for cached pictures (default 64 MiB)
+PHYSMIND_MAX_UPLOAD_BYTES   video uploads to POST /v1/builds above this answer 413 (default 64 MiB)
+PHYSMIND_MAX_BUILDS         build jobs queued or running; more answer 429 with Retry-After (default 4)
+PHYSMIND_BUILD_WORKERS      processes that build worlds from videos (default 1; with --dask local, the LocalCluster's workers)
+PHYSMIND_BUILD_TIMEOUT_S    a build still running after this fails with build_timeout (default 600)
 """
 
 from __future__ import annotations
@@ -37,6 +41,10 @@ DEFAULT_REQUEST_TIMEOUT_S = 60
 DEFAULT_BODY_TIMEOUT_S = 10
 DEFAULT_MAX_PENDING = 64
 DEFAULT_MAX_STORAGE_BYTES = 2 * 1024 ** 3
+DEFAULT_MAX_UPLOAD_BYTES = 64 * 1024 * 1024
+DEFAULT_MAX_BUILDS = 4
+DEFAULT_BUILD_WORKERS = 1
+DEFAULT_BUILD_TIMEOUT_S = 600
 LOOPBACK_HOSTS = ("localhost", "127.0.0.1", "::1")
 
 
@@ -84,6 +92,10 @@ class Settings:
     workers: int = 0
     max_pending: int = DEFAULT_MAX_PENDING
     max_storage_bytes: int = DEFAULT_MAX_STORAGE_BYTES
+    max_upload_bytes: int = DEFAULT_MAX_UPLOAD_BYTES
+    max_builds: int = DEFAULT_MAX_BUILDS
+    build_workers: int = DEFAULT_BUILD_WORKERS
+    build_timeout_s: int = DEFAULT_BUILD_TIMEOUT_S
 
     @property
     def accepted_hosts(self) -> tuple[str, ...]:
@@ -115,5 +127,9 @@ class Settings:
             workers=_workers(env),
             max_pending=_int(env, "PHYSMIND_MAX_PENDING", DEFAULT_MAX_PENDING),
             max_storage_bytes=_int(env, "PHYSMIND_MAX_STORAGE_BYTES", DEFAULT_MAX_STORAGE_BYTES),
+            max_upload_bytes=_int(env, "PHYSMIND_MAX_UPLOAD_BYTES", DEFAULT_MAX_UPLOAD_BYTES),
+            max_builds=_int(env, "PHYSMIND_MAX_BUILDS", DEFAULT_MAX_BUILDS),
+            build_workers=_int(env, "PHYSMIND_BUILD_WORKERS", DEFAULT_BUILD_WORKERS),
+            build_timeout_s=_int(env, "PHYSMIND_BUILD_TIMEOUT_S", DEFAULT_BUILD_TIMEOUT_S),
         )
         return replace(settings, **{k: v for k, v in overrides.items() if v is not None})

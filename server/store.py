@@ -6,6 +6,7 @@ transactions and a busy timeout serialises writers. Rollouts are immutable,
 stored as zlib-compressed JSON documents (``world.io.rollout_to_dict``), and
 kept decoded in a small LRU cache so inspection calls do not re-parse them.
 A restart re-opens the same file: every world and rollout answers as before.
+Build jobs (``POST /v1/builds``) are rows of their status record (JSON).
 """
 
 from __future__ import annotations
@@ -41,6 +42,11 @@ CREATE TABLE IF NOT EXISTS rollouts (
     edits          TEXT NOT NULL,
     document       BLOB NOT NULL,
     UNIQUE (world_id, rollout_id)
+);
+CREATE TABLE IF NOT EXISTS builds (
+    build_id   TEXT PRIMARY KEY,
+    created_at REAL NOT NULL,
+    record     TEXT NOT NULL
 );
 """
 
@@ -285,3 +291,19 @@ class SqliteStore:
         ).fetchone()
         return None if r is None else RolloutRow(r[0], r[1], r[2], r[3], json.loads(r[4]))
 
+
+    # -- build jobs -------------------------------------------------------------
+    def put_build(self, build_id: str, created_at: float, record: dict) -> None:
+        """Insert or replace the status record of a build job."""
+        self._conn().execute("INSERT OR REPLACE INTO builds (build_id, created_at, record) VALUES (?, ?, ?)",
+                             (build_id, created_at, json.dumps(record, separators=(",", ":"), allow_nan=False)))
+
+    def get_build(self, build_id: str) -> dict | None:
+        row = self._conn().execute("SELECT record FROM builds WHERE build_id = ?", (build_id,)).fetchone()
+        return None if row is None else json.loads(row[0])
+
+    def list_builds(self) -> list[dict]:
+        return [json.loads(row[0]) for row in self._conn().execute("SELECT record FROM builds ORDER BY created_at, build_id")]
+
+    def build_ids(self) -> list[str]:
+        return [row[0] for row in self._conn().execute("SELECT build_id FROM builds ORDER BY created_at, build_id")]

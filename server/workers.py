@@ -47,13 +47,22 @@ def _init_worker(settings: Settings, server_pid: int) -> None:
     global _WORKER_REGISTRY
     # Below the event loop's priority: under load the server still accepts, routes and answers /healthz.
     os.nice(WORKER_NICENESS)
-    threading.Thread(target=_exit_with_server, args=(server_pid,), daemon=True, name="physmind-orphan-watch").start()
+    start_parent_watch(server_pid)
     _WORKER_REGISTRY = WorldRegistry(SqliteStore(settings.database_path), settings)
 
 
-def _exit_with_server(server_pid: int) -> None:
-    """End this worker once the server process is gone (kill -9 leaves no orphans holding the database)."""
-    while os.getppid() == server_pid:
+def start_parent_watch(parent_pid: int) -> None:
+    """In a worker process: exit as soon as ``parent_pid`` is no longer its parent.
+
+    A kill -9 of the server runs no clean-up, so its workers would live on
+    (orphans holding the database and the CPU); each one watches its parent
+    instead, on a daemon thread, and ends itself within ORPHAN_CHECK_S.
+    """
+    threading.Thread(target=_exit_when_orphaned, args=(parent_pid,), daemon=True, name="physmind-orphan-watch").start()
+
+
+def _exit_when_orphaned(parent_pid: int) -> None:
+    while os.getppid() == parent_pid:
         time.sleep(ORPHAN_CHECK_S)
     os._exit(0)
 

@@ -4,7 +4,7 @@
     physmind build annotation_00000.json --camera scene_00000.json -o world.json   (oracle tracks)
     physmind ask --world world.json "Which event will happen next?" --choice "The red cube collides with the sphere" ...
     physmind ask --server http://127.0.0.1:8000 --world-id w-... "..." --choice ... [--vlm --base-url ... --model ...]
-    physmind eval DATASET_DIR [--workers N] [--source annotation|video] [--mode execute|trajectory_only] [-o report.json]
+    physmind eval DATASET_DIR [--workers N] [--dask local|tcp://HOST:8786] [--source annotation|video] [--mode execute|trajectory_only] [-o report.json]
 """
 
 from __future__ import annotations
@@ -21,6 +21,7 @@ from typing import Any, Iterator
 from perception.debug import png_bytes
 from perception.video import read_video
 from physmind.errors import CliError
+from physmind.executors import add_dask_argument, check_dask_address
 from physmind.local_server import local_server
 from planner.answer import refuse_false_premise, render_answer
 from planner.client import ToolClient
@@ -92,7 +93,10 @@ def register_eval(subparsers: Any) -> None:
     parser.add_argument("--source", choices=("annotation", "video"), default="annotation",
                         help="annotation: oracle tracks (default); video: perception + identification")
     parser.add_argument("--mode", choices=("execute", "trajectory_only"), default="execute")
-    parser.add_argument("--workers", type=int, default=1, help="processes building worlds in parallel")
+    parser.add_argument("--workers", type=int, default=1,
+                        help="processes building worlds (or answering Physion trials) in parallel; with --dask local, "
+                             "the LocalCluster's workers")
+    add_dask_argument(parser, "the world builds (CLEVRER layout) or the trials (Physion layout)")
     parser.add_argument("--camera", type=Path, help="camera JSON for videos without ground_truth/scene_XXXXX.json")
     parser.add_argument("--limit", type=int, help="only the first N videos")
     parser.add_argument("--cache", type=Path, help="directory to reuse/store built worlds (world_XXXXX.json)")
@@ -189,11 +193,13 @@ def run_eval(args: argparse.Namespace) -> int:
     from physmind.physion_eval import is_physion_dataset, run_physion_eval
     from physmind.pipeline import build_worlds
 
+    if args.workers < 1:
+        raise ValueError(f"--workers: expected >= 1, got {args.workers}")
+    if args.dask is not None:
+        check_dask_address(args.dask)
     if is_physion_dataset(args.dataset):  # Physion layout (trials.json): 3D contact prediction
         return run_physion_eval(args)
 
-    if args.workers < 1:
-        raise ValueError(f"--workers: expected >= 1, got {args.workers}")
     if args.limit is not None and args.limit < 1:
         raise ValueError(f"--limit: expected >= 1, got {args.limit}")
     camera_document = None
@@ -204,7 +210,7 @@ def run_eval(args: argparse.Namespace) -> int:
     if not entries:
         raise ValueError(f"{args.dataset}/questions.json holds no videos")
     started = time.perf_counter()
-    worlds, infos = build_worlds(entries, args.source, args.workers, args.cache, progress=True)
+    worlds, infos = build_worlds(entries, args.source, args.workers, args.cache, progress=True, dask=args.dask)
     build_seconds = time.perf_counter() - started
     with _server_for(args) as url, ToolClient(url) as client:
         result = evaluate(entries, worlds, client, ExecutorConfig(mode=args.mode), progress=True, build_info=infos)

@@ -17,11 +17,14 @@ import json
 import re
 import sys
 import time
+from concurrent.futures import as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from tqdm import tqdm
+
+from physmind.executors import open_executor
 
 from world.io import read_json_file
 from world.scene3d.io import tracks_from_annotation, world3d_to_dict
@@ -119,6 +122,28 @@ def evaluate_trial(directory: Path, trial: dict[str, Any]) -> TrialRecord:
                        world=world3d_to_dict(answer.world))
 
 
+def evaluate_trials(directory: Path, trials: list[dict[str, Any]], workers: int = 1, dask: str | None = None,
+                    progress: bool = True) -> list[TrialRecord]:
+    """``evaluate_trial`` over ``trials``, in order: in this process, a local process pool (workers > 1)
+    or on Dask (``dask``: 'local' or a scheduler address; physmind/executors.py)."""
+    bar = tqdm(total=len(trials), desc="physion eval", unit="trial", disable=not progress)
+    if workers <= 1 and dask is None:
+        records = []
+        for trial in trials:
+            records.append(evaluate_trial(directory, trial))
+            bar.update()
+    else:
+        with open_executor(dask, max(1, workers)) as executor:
+            futures = {executor.submit(evaluate_trial, directory, trial): k for k, trial in enumerate(trials)}
+            by_position: dict[int, TrialRecord] = {}
+            for future in as_completed(futures):
+                by_position[futures[future]] = future.result()
+                bar.update()
+        records = [by_position[k] for k in range(len(trials))]
+    bar.close()
+    return records
+
+
 def accuracy_table(records: list[TrialRecord]) -> dict[str, tuple[int, int]]:
     """{category or 'overall': (correct, labelled trials)}; a failed trial counts as wrong."""
     table: dict[str, tuple[int, int]] = {}
@@ -155,7 +180,7 @@ def run_physion_eval(args: argparse.Namespace) -> int:
     trials = load_trials(args.dataset)[: args.limit]
     if not trials:
         raise ValueError(f"{args.dataset}/trials.json holds no trials")
-    records = [evaluate_trial(args.dataset, trial) for trial in tqdm(trials, desc="physion eval", unit="trial")]
+    records = evaluate_trials(args.dataset, trials, args.workers, args.dask)
     table = accuracy_table(records)
     print(format_table(table, "oracle tracks (3D analytic)"))
     for record in records:

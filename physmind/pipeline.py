@@ -17,7 +17,7 @@ from __future__ import annotations
 import json
 import tempfile
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures import as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, Sequence
@@ -25,6 +25,7 @@ from typing import Any, Literal, Sequence
 from tqdm import tqdm
 
 from perception.pipeline import perceive
+from physmind.executors import open_executor
 from planner.evaluate import VideoEntry
 from world.identify.fit import identify
 from world.io import camera_from_dict, world_to_dict
@@ -108,8 +109,11 @@ def _build_one(entry: VideoEntry, source: str) -> tuple[int, dict[str, Any], dic
 
 
 def build_worlds(entries: Sequence[VideoEntry], source: str, workers: int = 1, cache_dir: Path | None = None,
-                 progress: bool = True) -> tuple[dict[int, dict[str, Any]], dict[int, dict[str, Any]]]:
+                 progress: bool = True, dask: str | None = None) -> tuple[dict[int, dict[str, Any]], dict[int, dict[str, Any]]]:
     """World documents (and build info: seconds, rmse) per scene index.
+
+    workers > 1: a local process pool of that size; dask: 'local' (a LocalCluster
+    of ``workers`` processes) or a scheduler address (physmind/executors.py).
 
     cache_dir: worlds already there (``world_XXXXX.json`` + ``build_XXXXX.json``) are reused,
     new ones written. A failing build is recorded in its info (``error``) and has no world.
@@ -134,7 +138,7 @@ def build_worlds(entries: Sequence[VideoEntry], source: str, workers: int = 1, c
             (Path(cache_dir) / f"build_{index:05d}.json").write_text(json.dumps(info))
 
     bar = tqdm(total=len(todo), desc=f"build ({source})", unit="video", disable=not progress or not todo)
-    if workers <= 1:
+    if workers <= 1 and dask is None:
         for entry in todo:
             try:
                 store(*_build_one(entry, source))
@@ -142,7 +146,7 @@ def build_worlds(entries: Sequence[VideoEntry], source: str, workers: int = 1, c
                 infos[entry.scene_index] = {"source": source, "error": f"{type(error).__name__}: {error}"}
             bar.update()
     else:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
+        with open_executor(dask, max(1, workers)) as pool:
             futures = {pool.submit(_build_one, entry, source): entry for entry in todo}
             for future in as_completed(futures):
                 entry = futures[future]

@@ -50,14 +50,15 @@ class ServerProcess:
                 self.process.wait(timeout=5)
 
 
-def start_server(data_dir: Path, log_path: Path, env_extra: dict[str, str] | None = None, timeout: float = 60.0) -> ServerProcess:
-    """``physmind serve`` on 127.0.0.1 and a free port; waits for /healthz."""
+def start_server(data_dir: Path, log_path: Path, env_extra: dict[str, str] | None = None, timeout: float = 60.0,
+                 extra_args: tuple[str, ...] = ()) -> ServerProcess:
+    """``physmind serve`` on 127.0.0.1 and a free port (plus ``extra_args``); waits for /healthz."""
     port = free_port()
     env = {k: v for k, v in os.environ.items() if not k.startswith("PHYSMIND_")}
     env.update(env_extra or {})
     log = open(log_path, "ab")
     process = subprocess.Popen(
-        [sys.executable, "-m", "physmind.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(data_dir)],
+        [sys.executable, "-m", "physmind.cli", "serve", "--host", "127.0.0.1", "--port", str(port), "--data-dir", str(data_dir), *extra_args],
         cwd=REPO, env=env, stdout=log, stderr=subprocess.STDOUT,
     )
     log.close()

@@ -150,3 +150,71 @@ def test_jobs_a_stopped_server_left_unfinished_are_failed_on_start(tmp_path):
     assert states == {"b-queued": ("failed", "server_restarted"), "b-running": ("failed", "server_restarted"),
                       "b-registering": ("failed", "server_restarted"), "b-done": ("done", None)}
     store.close()
+
+
+def _descendants(pid: int) -> list[int]:
+    """Every process below ``pid`` (children, their children, ...), from /proc (Linux)."""
+    parents: dict[int, int] = {}
+    for status in Path("/proc").glob("[0-9]*/status"):
+        try:
+            fields = dict(line.split(":\t", 1) for line in status.read_text().splitlines() if ":\t" in line)
+            parents[int(status.parent.name)] = int(fields.get("PPid", "0").strip())
+        except (OSError, ValueError):
+            continue
+    found, frontier = [], [pid]
+    while frontier:
+        parent = frontier.pop()
+        children = [p for p, pp in parents.items() if pp == parent]
+        found += children
+        frontier += children
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state != "Z"  # a zombie has exited; only its parent's wait is missing
+
+
+def _kill_9_during_a_build(tmp_path, server_factory, extra_args: tuple[str, ...], expected_processes: int,
+                           check_restart: bool) -> None:
+    server = server_factory(tmp_path / "data", tmp_path / "server.log", {"PHYSMIND_WORKERS": "1"}, extra_args=extra_args)
+    with server.client() as http:
+        accepted = _upload(http, VIDEO.read_bytes(), CAMERA.read_text())
+        assert accepted.status_code == 202, accepted.text
+        build_id = accepted.json()["build_id"]
+    deadline = time.monotonic() + 60
+    while len(_descendants(server.process.pid)) < expected_processes and time.monotonic() < deadline:
+        time.sleep(0.2)
+    processes = _descendants(server.process.pid)
+    assert len(processes) >= expected_processes, processes
+    os.kill(server.process.pid, signal.SIGKILL)
+    server.process.wait(10)
+    deadline = time.monotonic() + 15
+    while time.monotonic() < deadline and any(_alive(pid) for pid in processes):
+        time.sleep(0.2)
+    assert not [pid for pid in processes if _alive(pid)], "processes outlived the killed server"
+    if not check_restart:
+        return
+    # the job the dead server was running is reported, not lost
+    restarted = server_factory(tmp_path / "data", tmp_path / "server2.log", {"PHYSMIND_WORKERS": "0"})
+    try:
+        with restarted.client() as http:
+            record = http.get(f"/v1/builds/{build_id}").json()
+        assert record["state"] == "failed" and record["error"]["code"] == "server_restarted"
+    finally:
+        restarted.stop()
+
+
+@pytest.mark.slow
+def test_kill_9_during_a_build_leaves_no_process_and_fails_the_job(tmp_path, server_factory):
+    # a tool worker and a build worker (plus multiprocessing's resource tracker)
+    _kill_9_during_a_build(tmp_path, server_factory, (), expected_processes=2, check_restart=True)
+
+
+@pytest.mark.slow
+def test_kill_9_with_a_dask_local_cluster_leaves_no_process(tmp_path, server_factory):
+    # a tool worker, the LocalCluster's nanny and its worker
+    _kill_9_during_a_build(tmp_path, server_factory, ("--dask", "local"), expected_processes=3, check_restart=False)

@@ -15,8 +15,18 @@ and sampled, round robin) for ``--duration`` seconds while one prober asks
 /healthz every 50 ms; reports mix throughput, status counts, transport errors
 and /healthz p50/p99/max under that load.
 
+With ``--kill-rounds N``: instead, N rounds of ``--clients`` writers (each
+creating worlds and simulate_edit rollouts on its own world) against a
+server on one data directory that is killed with SIGKILL after
+``--duration`` seconds; then a fresh server on the same directory must
+answer every acknowledged world and rollout (0 lost), each rollout document
+must decode with the right id and the SQLite file must pass
+``PRAGMA integrity_check`` (0 corrupt), and no process of a killed server
+may be left after 10 s (orphans).
+
 Usage:  python -m bench.bench_server [--requests 300] [--duration 5] [--clients 16]
         python -m bench.bench_server --mix --clients 64 --duration 30
+        python -m bench.bench_server --kill-rounds 3 --clients 16 --duration 10
 Prints a Markdown table. Loopback only; nothing leaves the machine.
 """
 
@@ -75,7 +85,7 @@ def free_port() -> int:
         return sock.getsockname()[1]
 
 
-def start_server(data_dir: str, validate_results: bool, workers: int | None = None) -> tuple[subprocess.Popen, str]:
+def start_server(data_dir: str, validate_results: bool = True, workers: int | None = None) -> tuple[subprocess.Popen, str]:
     port = free_port()
     env = {k: v for k, v in os.environ.items() if not k.startswith("PHYSMIND_")}
     env["PHYSMIND_LOG_LEVEL"] = "WARNING"  # per-request log lines would measure stderr, not the tools
@@ -212,6 +222,102 @@ def mix_load(url: str, tools: str, clients: int, duration: float, api_key: str |
             "healthz_max": max(health_ms) if health_ms else float("nan"), "healthz_n": len(health_ms)}
 
 
+def _descendants(pid: int) -> list[int]:
+    """Every process below ``pid``, from /proc (Linux)."""
+    parents: dict[int, int] = {}
+    for status in Path("/proc").glob("[0-9]*/status"):
+        try:
+            fields = dict(line.split(":\t", 1) for line in status.read_text().splitlines() if ":\t" in line)
+            parents[int(status.parent.name)] = int(fields.get("PPid", "0").strip())
+        except (OSError, ValueError):
+            continue
+    found, frontier = [], [pid]
+    while frontier:
+        children = [p for p, parent in parents.items() if parent == frontier.pop()]
+        found += children
+        frontier += children
+    return found
+
+
+def _alive(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False
+
+
+def kill_rounds(rounds: int, clients: int, duration: float, workers: int | None) -> dict:
+    """``rounds`` x (writers for ``duration`` s, then SIGKILL); then every acknowledged write is checked."""
+    import sqlite3
+
+    document = six_object_world_document()
+    worlds: list[str] = []
+    rollouts: list[tuple[str, str]] = []
+    lock = threading.Lock()
+    orphans = 0
+    with tempfile.TemporaryDirectory() as data_dir:
+        for round_index in range(rounds):
+            process, url = start_server(data_dir, workers=workers)
+            stop = threading.Event()
+
+            def writer() -> None:
+                try:
+                    conn = connect(url)
+                    own = None
+                    while not stop.is_set():
+                        status, body = request(conn, "POST", "/v1/worlds", {"world": document})
+                        if status == 201:
+                            own = json.loads(body)["world_id"]
+                            with lock:
+                                worlds.append(own)
+                        if own is not None:
+                            status, body = request(conn, "POST", f"/v1/worlds/{own}/tools/simulate_edit",
+                                                   {"edit_type": "remove_object", "object_id": 1, "trajectory_detail": "summary"})
+                            if status == 200:
+                                with lock:
+                                    rollouts.append((own, json.loads(body)["rollout_id"]))
+                except (OSError, http.client.HTTPException):
+                    return  # the server was killed mid-request: that write was never acknowledged
+
+            threads = [threading.Thread(target=writer) for _ in range(clients)]
+            for thread in threads:
+                thread.start()
+            time.sleep(duration)
+            processes = _descendants(process.pid)
+            process.kill()
+            process.wait()
+            stop.set()
+            for thread in threads:
+                thread.join()
+            deadline = time.monotonic() + 10
+            while time.monotonic() < deadline and any(_alive(p) for p in processes):
+                time.sleep(0.2)
+            orphans += sum(_alive(p) for p in processes)
+            print(f"round {round_index + 1}: killed after {duration:g} s; acknowledged so far: {len(worlds)} worlds, "
+                  f"{len(rollouts)} rollouts", file=sys.stderr)
+        process, url = start_server(data_dir, workers=workers)
+        lost = corrupt = 0
+        try:
+            conn = connect(url)
+            for world_id in worlds:
+                status, _ = request(conn, "GET", f"/v1/worlds/{world_id}")
+                lost += status == 404
+                corrupt += status not in (200, 404)
+            for world_id, rollout_id in rollouts:
+                status, body = request(conn, "GET", f"/v1/worlds/{world_id}/rollouts/{rollout_id}?detail=full")
+                if status == 404:
+                    lost += 1
+                elif status != 200 or json.loads(body)["rollout"]["id"] != rollout_id:
+                    corrupt += 1
+        finally:
+            process.terminate()
+            process.wait(timeout=15)
+        with sqlite3.connect(Path(data_dir) / "physmind.sqlite3") as db:
+            integrity = db.execute("PRAGMA integrity_check").fetchone()[0]
+    return {"worlds": len(worlds), "rollouts": len(rollouts), "lost": lost, "corrupt": corrupt,
+            "integrity": integrity, "orphans": orphans}
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--url", help="use a running server (loopback only) instead of starting one")
@@ -222,9 +328,19 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--workers", type=int, default=None, help="PHYSMIND_WORKERS of the started server (default: its own)")
     parser.add_argument("--mix", action="store_true", help="run only the mixed-tool load test with a /healthz prober")
     parser.add_argument("--no-validate-results", action="store_true", help="start the server with PHYSMIND_VALIDATE_RESULTS=0")
+    parser.add_argument("--kill-rounds", type=int, default=0, help="run only the kill -9 durability test, this many rounds")
     args = parser.parse_args(argv)
-    if args.requests < 1 or args.clients < 1 or args.duration <= 0:
-        raise SystemExit("bench_server: --requests, --clients and --duration must be positive")
+    if args.requests < 1 or args.clients < 1 or args.duration <= 0 or args.kill_rounds < 0:
+        raise SystemExit("bench_server: --requests, --clients, --duration and --kill-rounds must be positive")
+    if args.kill_rounds:
+        result = kill_rounds(args.kill_rounds, args.clients, args.duration, args.workers)
+        print(f"\nPhysMind tool server, kill -9 under write load: {args.kill_rounds} rounds, {args.clients} writers, "
+              f"killed after {args.duration:g} s, {os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.1f}\n")
+        print("| worlds acknowledged | rollouts acknowledged | lost | corrupt | integrity_check | orphan processes |")
+        print("|---:|---:|---:|---:|---|---:|")
+        print(f"| {result['worlds']} | {result['rollouts']} | {result['lost']} | {result['corrupt']} | "
+              f"{result['integrity']} | {result['orphans']} |")
+        return 0
 
     process = None
     tmp = tempfile.TemporaryDirectory()

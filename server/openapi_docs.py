@@ -13,6 +13,13 @@ ERROR_STATUSES = {
     "415": "request body is not application/json",
     "422": "invalid arguments (JSON pointer to the field) or a limit exceeded",
 }
+# Extra statuses of the build upload (server/routes_builds.py).
+UPLOAD_ERROR_STATUSES = {
+    "403": "an upload from a browser origin not on the CORS allow-list",
+    "408": "the upload did not arrive within PHYSMIND_BODY_TIMEOUT_S",
+    "429": "too many build jobs queued or running (Retry-After)",
+    "503": "this server has no build backend",
+}
 
 
 def responses(ok_status: int, ok_schema: dict | None = None, description: str = "OK",
@@ -23,7 +30,7 @@ def responses(ok_status: int, ok_schema: dict | None = None, description: str = 
         str(ok_status): {"description": description, "content": {"application/json": {"schema": ok_schema or {"type": "object"}}}},
     }
     for status in errors:
-        out[status] = {"description": ERROR_STATUSES[status], **error}
+        out[status] = {"description": {**ERROR_STATUSES, **UPLOAD_ERROR_STATUSES}[status], **error}
     return out
 
 

@@ -24,7 +24,7 @@ from schemas import read_schema
 from server.builds import BuildJobs, build_status_body
 from server.contract import response_schema
 from server.errors import json_response, note
-from server.openapi_docs import responses
+from server.openapi_docs import ERROR_STATUSES, UPLOAD_ERROR_STATUSES, responses
 from tools.errors import ToolError, echo, invalid_argument
 from world.io import camera_from_dict
 
@@ -100,7 +100,8 @@ async def _read_form(request: Request) -> tuple[bytes, dict, str | None]:
 
 
 @router.post("/v1/builds", operation_id="create_build", status_code=202,
-             responses=responses(202, response_schema("build_status"), "the build job was queued; poll its status"),
+             responses=responses(202, response_schema("build_status"), "the build job was queued; poll its status",
+                                 errors=(*ERROR_STATUSES, *UPLOAD_ERROR_STATUSES)),
              openapi_extra={"requestBody": {"required": True, "content": {UPLOAD_MEDIA_TYPE: {
                  "schema": build_form_schema(), "encoding": {"video": {"contentType": "application/octet-stream"}}}}}})
 async def create_build(request: Request) -> Response:

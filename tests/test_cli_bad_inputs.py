@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import socket
+from pathlib import Path
 
 import pytest
 
@@ -87,3 +88,56 @@ def test_synth_out_naming_a_file(tmp_path, capsys):
     target.write_text("x")
     err = run_cli(["synth", "--out", str(target), "--scenes", "1", "--seed", "1"], capsys)
     assert "is a file" in err
+
+
+# -- every command that reads a file, against every kind of bad file -----------------------
+FIXTURES = Path(__file__).resolve().parent / "data" / "synth"
+GOOD_ANNOTATION = str(FIXTURES / "annotations" / "annotation_00001.json")
+GOOD_CAMERA = str(FIXTURES / "ground_truth" / "scene_00001.json")
+GOOD_VIDEO = str(FIXTURES / "videos" / "video_00001.mp4")
+FILE_COMMANDS = {  # {bad} is the bad file, {out} an output file
+    "fit": ["fit", "{bad}", "-o", "{out}"],
+    "build (annotation)": ["build", "{bad}", "--source", "annotation", "-o", "{out}"],
+    "build (video)": ["build", "{bad}", "--source", "video", "--camera", GOOD_CAMERA, "-o", "{out}"],
+    "build --camera": ["build", GOOD_VIDEO, "--camera", "{bad}", "-o", "{out}"],
+    "fit --camera": ["fit", GOOD_ANNOTATION, "--camera", "{bad}", "-o", "{out}"],
+    "parse": ["parse", "{bad}", "-o", "{out}"],
+    "perceive": ["perceive", "{bad}", "--camera", GOOD_CAMERA, "-o", "{out}", "--quiet"],
+    "ask --world": ["ask", "q?", "--choice", "a", "--world", "{bad}"],
+    "render": ["render", "{bad}", "-o", "{out}"],
+    "eval": ["eval", "{bad}", "-o", "{out}"],
+}
+BAD_FILES = ("missing", "directory", "empty", "binary", "json_array")
+
+
+def _bad_file(kind: str, folder: Path) -> Path:
+    path = folder / f"{kind}.json"
+    if kind == "directory":
+        path.mkdir()
+    elif kind == "empty":
+        path.write_text("")
+    elif kind == "binary":
+        path.write_bytes(bytes(range(128, 256)) * 3)
+    elif kind == "json_array":
+        path.write_text("[1, 2]")
+    return path
+
+
+@pytest.mark.parametrize("kind", BAD_FILES)
+@pytest.mark.parametrize("command", FILE_COMMANDS)
+def test_every_file_reading_command_on_every_bad_file(command, kind, tmp_path, capsys):
+    bad = _bad_file(kind, tmp_path)
+    argv = [a.format(bad=bad, out=tmp_path / "out.json") for a in FILE_COMMANDS[command]]
+    err = run_cli(argv, capsys)
+    assert err.startswith(f"physmind {argv[0]}: error: ")
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["eval", "{dir}", "--dask", "scheduler:8786"], "--dask: expected 'local' or a scheduler address"),
+    (["eval", "{dir}", "--dask", "tcp://127.0.0.1:{port}"], "cannot reach the Dask scheduler"),
+    (["serve", "--dask", "http://x", "--port", "{port}"], "--dask: expected 'local' or a scheduler address"),
+])
+def test_bad_dask_address(argv, message, tmp_path, capsys):
+    (tmp_path / "questions.json").write_text(json.dumps([{"scene_index": 0, "video_filename": "video_00000.mp4", "questions": []}]))
+    filled = [a.format(dir=tmp_path, port=_free_port()) for a in argv]
+    assert message in run_cli(filled, capsys)

@@ -180,7 +180,9 @@ def _alive(pid: int) -> bool:
 
 def _kill_9_during_a_build(tmp_path, server_factory, extra_args: tuple[str, ...], expected_processes: int,
                            check_restart: bool) -> None:
-    server = server_factory(tmp_path / "data", tmp_path / "server.log", {"PHYSMIND_WORKERS": "1"}, extra_args=extra_args)
+    # a generous start-up time: a LocalCluster starts its worker processes before the server answers
+    server = server_factory(tmp_path / "data", tmp_path / "server.log", {"PHYSMIND_WORKERS": "1"}, timeout=180,
+                            extra_args=extra_args)
     with server.client() as http:
         accepted = _upload(http, VIDEO.read_bytes(), CAMERA.read_text())
         assert accepted.status_code == 202, accepted.text

@@ -233,7 +233,8 @@ def _descendants(pid: int) -> list[int]:
             continue
     found, frontier = [], [pid]
     while frontier:
-        children = [p for p, parent in parents.items() if parent == frontier.pop()]
+        current = frontier.pop()
+        children = [p for p, parent in parents.items() if parent == current]
         found += children
         frontier += children
     return found
@@ -279,13 +280,15 @@ def kill_rounds(rounds: int, clients: int, duration: float, workers: int | None)
                 except (OSError, http.client.HTTPException):
                     return  # the server was killed mid-request: that write was never acknowledged
 
-            threads = [threading.Thread(target=writer) for _ in range(clients)]
+            threads = [threading.Thread(target=writer, daemon=True) for _ in range(clients)]
             for thread in threads:
                 thread.start()
-            time.sleep(duration)
-            processes = _descendants(process.pid)
-            process.kill()
-            process.wait()
+            try:
+                time.sleep(duration)
+                processes = _descendants(process.pid)
+            finally:
+                process.kill()  # SIGKILL: no clean-up runs in the server
+                process.wait()
             stop.set()
             for thread in threads:
                 thread.join()

@@ -26,6 +26,7 @@ from server.contract import response_schema
 from server.errors import json_response, note
 from server.openapi_docs import ERROR_STATUSES, UPLOAD_ERROR_STATUSES, responses
 from tools.errors import ToolError, echo, invalid_argument
+from tools.registry import inline_refs
 from world.io import camera_from_dict
 
 router = APIRouter(tags=["builds"])
@@ -42,16 +43,17 @@ def builds_of(request: Request) -> BuildJobs:
 
 def build_form_schema() -> dict:
     """The multipart body of POST /v1/builds, for the OpenAPI document."""
-    camera = read_schema("world.schema.json")["$defs"]["camera"]
+    camera = inline_refs({"$ref": "world.schema.json#/$defs/camera"}, read_schema)
     return {
         "type": "object",
         "required": ["video", "camera"],
         "additionalProperties": False,
         "properties": {
             "video": {"type": "string", "format": "binary", "description": "the video file (mp4, h264)"},
-            "camera": {"type": "string", "contentMediaType": "application/json",
-                       "description": "the camera as JSON: " + json.dumps(camera, separators=(",", ":"))
-                       + " (a bare camera or any object with a 'camera' key, as physmind build --camera reads)"},
+            # An object part (sent as JSON, see the encoding below): a camera, bare or under a "camera" key.
+            "camera": {"description": "the camera (a JSON part): bare, or under a 'camera' key as in a generator "
+                                      "ground-truth file", "anyOf": [camera, {
+                           "type": "object", "required": ["camera"], "properties": {"camera": camera}}]},
             "name": {"type": "string", "minLength": 1, "maxLength": 200, "description": "name of the world to register"},
         },
     }
@@ -103,7 +105,8 @@ async def _read_form(request: Request) -> tuple[bytes, dict, str | None]:
              responses=responses(202, response_schema("build_status"), "the build job was queued; poll its status",
                                  errors=(*ERROR_STATUSES, *UPLOAD_ERROR_STATUSES)),
              openapi_extra={"requestBody": {"required": True, "content": {UPLOAD_MEDIA_TYPE: {
-                 "schema": build_form_schema(), "encoding": {"video": {"contentType": "application/octet-stream"}}}}}})
+                 "schema": build_form_schema(), "encoding": {"video": {"contentType": "application/octet-stream"},
+                                                          "camera": {"contentType": "application/json"}}}}}})
 async def create_build(request: Request) -> Response:
     video, camera, name = await _read_form(request)
     record = builds_of(request).submit(video, camera, name)

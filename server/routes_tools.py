@@ -7,7 +7,7 @@ from typing import Callable, Literal
 from fastapi import APIRouter, Query, Request
 from fastapi.responses import Response
 
-from server.contract import response_schema
+from server.contract import published_args_schema, response_schema
 from server.errors import encoded_response, json_response, note
 from server.openapi_docs import responses
 from server.world_registry import pool_of
@@ -48,7 +48,7 @@ for _tool in tool_registry().values():
         responses=responses(200, inline_tool_schema(f"{_tool.name}.result.json")),
         # An empty body is {}: required only when the arguments have required properties.
         openapi_extra={"requestBody": {"required": bool(_tool.args_schema.get("required")), "content": {"application/json": {
-            "schema": inline_tool_schema(f"{_tool.name}.args.json")}}}},
+            "schema": published_args_schema(inline_tool_schema(f"{_tool.name}.args.json"))}}}},
     )
 # Any other name: 404 listing the tools (not in the OpenAPI spec: the routes above are the contract).
 router.add_api_route("/v1/worlds/{world_id}/tools/{tool_name}", _tool_endpoint(None), methods=["POST"], include_in_schema=False)

@@ -95,7 +95,7 @@ def create_app(settings: Settings | None = None, build_backend: BuildBackend | N
     install_error_handlers(app, logger)
     include_routes(app)
     mount_mcp(app, registry, pool)  # POST /mcp: the Model Context Protocol (server/mcp.py)
-    install_openapi(app, auth_required=bool(settings.api_key))
+    install_openapi(app, auth_required=bool(settings.api_key), max_horizon_frames=settings.max_horizon_frames)
     if settings.cors_origins:  # off unless origins are listed: no browser page may call the API by default
         app.add_middleware(CORSMiddleware, allow_origins=list(settings.cors_origins), allow_methods=["GET", "POST", "DELETE"],
                            allow_headers=["Authorization", "Content-Type", "X-Request-ID"], expose_headers=["X-Request-ID"])

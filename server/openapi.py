@@ -12,7 +12,19 @@ from server.openapi_docs import components
 BEARER_SCHEME = "bearer"
 
 
-def install_openapi(app: FastAPI, auth_required: bool) -> None:
+def _limit_horizons(document: dict[str, Any], max_horizon_frames: int) -> None:
+    """Publish this server's horizon limit (PHYSMIND_MAX_HORIZON_FRAMES) on every ``horizon_frames`` argument."""
+    for operations in document.get("paths", {}).values():
+        for operation in operations.values():
+            if not isinstance(operation, dict):
+                continue
+            for media in operation.get("requestBody", {}).get("content", {}).values():
+                properties = media.get("schema", {}).get("properties", {})
+                if "horizon_frames" in properties:  # `maximum` constrains numbers only: a null default stays valid
+                    properties["horizon_frames"] = {"allOf": [properties["horizon_frames"], {"maximum": max_horizon_frames}]}
+
+
+def install_openapi(app: FastAPI, auth_required: bool, max_horizon_frames: int | None = None) -> None:
     """Replace ``app.openapi`` by a cached builder that declares the bearer scheme and the Error schema.
 
     The scheme is declared whether or not this server has a key, so clients
@@ -35,6 +47,8 @@ def install_openapi(app: FastAPI, auth_required: bool) -> None:
             for operation in operations.values():
                 if isinstance(operation, dict):
                     operation["security"] = [{BEARER_SCHEME: []}] if auth_required else [{}, {BEARER_SCHEME: []}]
+        if max_horizon_frames is not None:
+            _limit_horizons(document, max_horizon_frames)
         app.openapi_schema = document
         return document
 

@@ -44,3 +44,21 @@ def test_published_schema_agrees_with_the_server(tool, args):
 def test_the_cases_cover_both_answers():
     answers = {_accepted_by_server(tool, args) for tool, args in CASES}
     assert answers == {True, False}
+
+
+def test_openapi_publishes_this_servers_horizon_limit(tmp_path):
+    from server.app import create_app
+    from server.settings import Settings
+
+    app = create_app(Settings(data_dir=tmp_path, workers=0, max_horizon_frames=777))
+    limited = []
+    for path, operations in app.openapi()["paths"].items():
+        for operation in operations.values():
+            for media in operation.get("requestBody", {}).get("content", {}).values():
+                horizon = media["schema"].get("properties", {}).get("horizon_frames")
+                if horizon is not None:
+                    validator = jsonschema.Draft202012Validator(horizon)
+                    assert validator.is_valid(777) and not validator.is_valid(778), path
+                    limited.append(path)
+    app.state.store.close()
+    assert {"/v1/worlds", "/v1/worlds/{world_id}/tools/continue_world", "/v1/worlds/{world_id}/tools/simulate_edit"} <= set(limited)

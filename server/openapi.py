@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 from fastapi import FastAPI
@@ -12,6 +13,17 @@ from server.openapi_docs import components
 BEARER_SCHEME = "bearer"
 
 
+def _cap(schema: Any, limit: int) -> None:
+    """Lower every integer ``maximum`` in ``schema`` (and its anyOf/allOf branches) to ``limit``, in place."""
+    if not isinstance(schema, dict):
+        return
+    if schema.get("type") == "integer":
+        schema["maximum"] = min(schema.get("maximum", limit), limit)
+    for key in ("anyOf", "allOf", "oneOf"):
+        for branch in schema.get(key, ()):
+            _cap(branch, limit)
+
+
 def _limit_horizons(document: dict[str, Any], max_horizon_frames: int) -> None:
     """Publish this server's horizon limit (PHYSMIND_MAX_HORIZON_FRAMES) on every ``horizon_frames`` argument."""
     for operations in document.get("paths", {}).values():
@@ -20,8 +32,9 @@ def _limit_horizons(document: dict[str, Any], max_horizon_frames: int) -> None:
                 continue
             for media in operation.get("requestBody", {}).get("content", {}).values():
                 properties = media.get("schema", {}).get("properties", {})
-                if "horizon_frames" in properties:  # `maximum` constrains numbers only: a null default stays valid
-                    properties["horizon_frames"] = {"allOf": [properties["horizon_frames"], {"maximum": max_horizon_frames}]}
+                if "horizon_frames" in properties:
+                    properties["horizon_frames"] = copy.deepcopy(properties["horizon_frames"])  # schemas are shared
+                    _cap(properties["horizon_frames"], max_horizon_frames)
 
 
 def install_openapi(app: FastAPI, auth_required: bool, max_horizon_frames: int | None = None) -> None:

@@ -173,7 +173,7 @@ def world_to_dict(world: World) -> dict[str, Any]:
         },
         # Written only when known, so older documents read back unchanged.
         **({"observed_collisions": [{"bodies": [a, b], "frame": f} for a, b, f in world.observed_collisions]}
-           if world.observed_collisions else {}),
+           if world.observed_collisions is not None else {}),
     }
 
 
@@ -205,7 +205,8 @@ def world_from_dict(document: Mapping[str, Any]) -> World:
         id=document["id"],
         provenance=json.loads(json.dumps(document["provenance"])),
         anchor=_anchor_from_dict(document.get("anchor")),
-        observed_collisions=tuple((c["bodies"][0], c["bodies"][1], c["frame"]) for c in document.get("observed_collisions", ())),
+        observed_collisions=None if "observed_collisions" not in document else
+        tuple((c["bodies"][0], c["bodies"][1], c["frame"]) for c in document["observed_collisions"]),
     )
 
 

@@ -252,7 +252,8 @@ class World:
     anchor: optional re-anchoring of the unedited continuation (see Anchor).
     observed_collisions: ``((id_a, id_b, frame), ...)``, ids sorted, the
     collisions seen in the observed video (identification's events, the
-    evidence explanatory answers rest on); empty when unknown.
+    evidence explanatory answers rest on); None when unknown (a world not
+    fitted to a video).
     provenance: free-form record of where the parameters came from
     (e.g. the fit report); kept JSON-serialisable.
     """
@@ -266,7 +267,7 @@ class World:
     id: str = "world"
     provenance: Mapping[str, object] = field(default_factory=dict)
     anchor: Anchor | None = None
-    observed_collisions: tuple[tuple[int, int, int], ...] = ()
+    observed_collisions: tuple[tuple[int, int, int], ...] | None = None
 
     def __post_init__(self) -> None:
         ids = [b.id for b in self.bodies]
@@ -279,13 +280,14 @@ class World:
             _require(a in known and b in known, f"pair_restitution: unknown body id in pair ({a}, {b}); known ids {sorted(known)}")
             _require(_finite(e) and 0 <= e <= 1, f"pair_restitution: e for ({a}, {b}) must be in [0, 1], got {e!r}")
         collisions = []
-        for entry in self.observed_collisions:
+        for entry in self.observed_collisions or ():
             _require(len(entry) == 3, f"observed_collisions: expected (id_a, id_b, frame), got {entry!r}")
             a, b, frame = (int(v) for v in entry)
             _require(a in known and b in known and a < b, f"observed_collisions: ({a}, {b}) must be two known body ids, ascending; known ids {sorted(known)}")
             _require(0 <= frame < max(self.observed_frames, 1), f"observed_collisions: frame {frame} of ({a}, {b}) is outside the observed frames 0..{self.observed_frames - 1}")
             collisions.append((a, b, frame))
-        object.__setattr__(self, "observed_collisions", tuple(sorted(collisions, key=lambda c: (c[2], c[0], c[1]))))
+        if self.observed_collisions is not None:
+            object.__setattr__(self, "observed_collisions", tuple(sorted(collisions, key=lambda c: (c[2], c[0], c[1]))))
         if self.anchor is not None:
             for body_id, _ in self.anchor.states:
                 _require(body_id in known, f"anchor.states: unknown body id {body_id}; known ids {sorted(known)}")

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from synth.scene import GRAVITY, OBJECT_HALF_SIZE, ROLLING_FRICTION_RANGE, SPHERE_SLIDING_FRICTION_RANGE, TORSIONAL_FRICTION, deceleration
-from tests.world.sphere_mujoco import run_sphere, sphere_spec
+from bench.sphere_mujoco import run_sphere, sphere_spec
 from world.rollout import simulate
 from world.types import Body, BodyState, Shape, World
 

@@ -298,6 +298,9 @@ class VideoExecutor:
                 facts.append(f"unseen events: frames {self.observed_frames}..{horizon - 1} of rollout {rollout_id!r}: "
                              + (", ".join(describe_event(e) for e in events) or "none"))
             scene = self.scene()
+            if self.observed_collisions() is not None:
+                facts.append("observed collisions: the world's record of the video (get_world_summary), "
+                             "not the replay")
             if absent_removal:
                 removed = None
                 reference = tuple(e for e in scene.events if e.frame is not None and e.frame < scene.observed_frames)

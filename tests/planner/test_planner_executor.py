@@ -267,5 +267,6 @@ def test_explanatory_answers_come_from_the_observed_collisions(tool_client, six_
     choices = ["the collision between the red object and the blue object", "the collision between the blue object and the green object"]
     answer = executor.answer_text(question, choices)
     assert answer.verdicts == ["wrong", "correct"]
+    assert any("record of the video" in fact for fact in answer.facts)
     replay_only = VideoExecutor(tool_client.create_world(world_to_dict(six_world))).answer_text(question, choices)
     assert replay_only.verdicts == ["correct", "correct"]  # the replay alone says otherwise

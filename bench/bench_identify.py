@@ -173,8 +173,11 @@ def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None =
     observed_end = truth.observed_frames - 1
     kept_events = [((a, b), frame) for a, b, frame in world.observed_collisions]
     kept = match_events(kept_events, [c for c in truth.collisions if c[1] <= observed_end])
-    # ... and whether the fitted replay reproduces each of them (recall = reproduced / kept).
-    reproduced = match_events(rollout_collisions(base, 0, observed_end), kept_events)
+    # ... and whether the fitted replay reproduces each collision the track analysis found
+    # (the fit report's collisions_used; recall = reproduced / found).
+    found = [((min(a, b), max(a, b)), frame) for a, b, frame in world.provenance.get("fit", {}).get("collisions_used", [])
+             if frame <= observed_end]
+    reproduced = match_events(rollout_collisions(base, 0, observed_end), found)
     return {
         "ahead": ahead,
         "kept": _counts(kept),

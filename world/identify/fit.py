@@ -31,6 +31,7 @@ from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide
 from world.identify.segments import CandidateCollision, find_candidate_collisions
 from world.observations import ObjectTrack, Observations
 from world.rollout import footprint_of, simulate
+from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
 from world.types import STANDARD_GRAVITY, Anchor, Body, BodyState, World
 
 MASS_RATIO_BOUNDS = (0.05, 20.0)  # paper, Appendix A: 0.05 < m_i / m_j < 20
@@ -672,7 +673,28 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
     provenance = {"fit": report.to_dict(), "source": dict(observations.source)}
     observed = tuple(sorted({(min(c.bodies), max(c.bodies), c.frame) for c in candidates
                              if 0 <= c.frame < observations.num_frames}, key=lambda c: (c[2], c[0], c[1])))
-    return replace(world, provenance=provenance, anchor=anchor, observed_collisions=observed), report
+    world = replace(world, provenance=provenance, anchor=anchor, observed_collisions=observed)
+    return with_replayed_collisions(world, config.simulator), report
+
+
+def with_replayed_collisions(world: World, simulator: Callable[..., object] | None = None) -> World:
+    """The world with its fitted replay's collisions in the video added to ``observed_collisions``.
+
+    The track analysis (stage 1) misses a weak contact (a light touch of a
+    heavy body); the fitted replay, which must explain every track, still
+    makes that pair collide. A replayed collision of a pair with no recorded
+    one within the contact-episode gap is added at the replay's frame.
+    """
+    replay = (simulator or simulate)(world, (), max(world.observed_frames, 1))
+    gap = frames_in(CONTACT_EPISODE_GAP_SECONDS, world.fps)
+    recorded = list(world.observed_collisions or ())
+    added = [
+        (min(e.bodies), max(e.bodies), e.frame)
+        for e in replay.events
+        if e.kind == "collision" and e.frame < world.observed_frames
+        and not any((a, b) == (min(e.bodies), max(e.bodies)) and abs(frame - e.frame) <= gap for a, b, frame in recorded)
+    ]
+    return replace(world, observed_collisions=tuple(recorded + added)) if added else world
 
 
 def _observed_tracks(observations: Observations) -> tuple[list[ObjectTrack], dict[int, list[str]]]:

@@ -158,3 +158,29 @@ def test_time_budget_keeps_the_best_fit_and_says_so():
     _, none = identify(observations, FitConfig(time_budget_seconds=0.0))
     assert none.budget_exhausted and none.skipped_stages == full.stages and none.function_evaluations == 0
     assert none.to_dict()["budget_exhausted"] is True
+
+
+def test_the_replay_adds_the_collisions_the_track_analysis_missed():
+    from dataclasses import replace as _replace
+
+    from world.identify.fit import with_replayed_collisions
+
+    replayed = [(min(e.bodies), max(e.bodies), e.frame) for e in simulate(CHAIN, horizon_frames=CHAIN.observed_frames).events
+                if e.kind == "collision"]
+    assert len(replayed) == 2
+    first, second = replayed
+    # The record holds the first collision two frames off: kept as is, not duplicated; the second is added.
+    record = ((first[0], first[1], first[2] + 2),)
+    merged = with_replayed_collisions(_replace(CHAIN, observed_collisions=record))
+    assert merged.observed_collisions == (record[0], second)
+    # Nothing recorded and nothing replayed stays as it is.
+    alone = World((CHAIN.bodies[3],), observed_frames=50, observed_collisions=())
+    assert with_replayed_collisions(alone).observed_collisions == ()
+
+
+def test_identify_keeps_the_observed_collisions():
+    fitted, report = identify(_observe(CHAIN, CHAIN.observed_frames))
+    truth = [((min(e.bodies), max(e.bodies)), e.frame) for e in simulate(CHAIN, horizon_frames=CHAIN.observed_frames).events if e.kind == "collision"]
+    kept = [((a, b), f) for a, b, f in fitted.observed_collisions]
+    assert [p for p, _ in kept] == [p for p, _ in truth]
+    assert all(abs(f - g) <= 2 for (_, f), (_, g) in zip(kept, truth))

@@ -56,7 +56,7 @@ STILL_MOVING_SPEED = 0.02  # m/s: MuJoCo speed at the last observed frame above 
 VELOCITY_WINDOW = 5  # frames: the constant-velocity baseline's least-squares window
 NEAR_METRES = 0.10  # "within 10 cm"
 PREDICTORS = ("world", "hold", "const-vel")
-SLIDING_SPHERES = "slide-spheres"  # the same fit with spheres modelled as sliding (the model before rolling)
+ROLLING_SPHERES = "roll-spheres"  # the same fit with spheres that skid then roll (FitConfig(rolling_spheres=True))
 
 
 def _future_truth(annotation: Path, index: str) -> dict | None:
@@ -115,7 +115,7 @@ def _noisy(observations: Observations, sigma: float, seed: int) -> Observations:
 
 
 def _simulator(method: str):
-    if method in ("analytic", SLIDING_SPHERES):
+    if method in ("analytic", ROLLING_SPHERES):
         return None, lambda world, edits, horizon: simulate(world, edits, horizon)
 
     def stepper(world, edits, horizon):
@@ -156,7 +156,7 @@ def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None =
     cached = _cached_world(worlds, index, noise, method)
     if cached is None:
         began = time.perf_counter()
-        world, report = identify(observations, FitConfig(simulator=fit_simulator, rolling_spheres=method != SLIDING_SPHERES))
+        world, report = identify(observations, FitConfig(simulator=fit_simulator, rolling_spheres=method == ROLLING_SPHERES))
         seconds, evaluations = time.perf_counter() - began, report.function_evaluations
     else:
         world, seconds, evaluations = cached
@@ -275,8 +275,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--noise", default="0,0.01,0.03", help="position noise levels, share of object size")
     parser.add_argument("--baseline", action="store_true", help="also fit with the fixed-step integrator")
     parser.add_argument("--baseline-scenes", type=int, default=None, help="limit the baseline to the first N scenes")
-    parser.add_argument("--sliding-spheres", action="store_true",
-                        help="also fit with spheres modelled as sliding (FitConfig(rolling_spheres=False)), same run")
+    parser.add_argument("--rolling-spheres", action="store_true",
+                        help="also fit with spheres that skid then roll (FitConfig(rolling_spheres=True)), same run")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--json", type=Path, help="write every per-scene row here")
     parser.add_argument("--worlds", type=Path, default=None,
@@ -288,8 +288,8 @@ def main(argv: list[str] | None = None) -> int:
         raise SystemExit(f"no annotations under {args.dataset / 'annotations'}")
     noises = [float(v) for v in args.noise.split(",")]
     tasks = [(a, noise, "analytic", args.worlds) for noise in noises for a in annotations]
-    if args.sliding_spheres:
-        tasks += [(a, noise, SLIDING_SPHERES, None) for noise in noises for a in annotations]
+    if args.rolling_spheres:
+        tasks += [(a, noise, ROLLING_SPHERES, None) for noise in noises for a in annotations]
     if args.baseline:
         for a in annotations[: args.baseline_scenes]:
             tasks += [(a, noise, "fixed-1/100", None) for noise in noises]

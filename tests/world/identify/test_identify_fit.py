@@ -66,7 +66,7 @@ GLANCING = World(
 
 @pytest.mark.parametrize("world", [CHAIN, GLANCING], ids=["chain", "glancing"])
 def test_recovers_parameters_from_noiseless_engine_tracks(world):
-    fitted, report = identify(_observe(world, world.observed_frames))
+    fitted, report = identify(_observe(world, world.observed_frames), FitConfig(rolling_spheres=True))
     truth_events = [(e.bodies, e.frame) for e in simulate(world).events if e.kind == "collision"]
     assert truth_events, "the scene must contain collisions to identify"
     for true, fit in zip(world.bodies, fitted.bodies):
@@ -179,7 +179,7 @@ def test_the_replay_adds_the_collisions_the_track_analysis_missed():
 
 
 def test_identify_keeps_the_observed_collisions():
-    fitted, report = identify(_observe(CHAIN, CHAIN.observed_frames))
+    fitted, report = identify(_observe(CHAIN, CHAIN.observed_frames), FitConfig(rolling_spheres=True))
     truth = [((min(e.bodies), max(e.bodies)), e.frame) for e in simulate(CHAIN, horizon_frames=CHAIN.observed_frames).events if e.kind == "collision"]
     kept = [((a, b), f) for a, b, f in fitted.observed_collisions]
     assert [p for p, _ in kept] == [p for p, _ in truth]

@@ -171,7 +171,7 @@ def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None =
     ahead = None if future is None else _ahead_errors(world, observations, future, score_simulator)
     # The collisions the world keeps as observed (identification's), against MuJoCo's in the video.
     observed_end = truth.observed_frames - 1
-    kept_events = [((a, b), frame) for a, b, frame in world.observed_collisions]
+    kept_events = [((a, b), frame) for a, b, frame in world.observed_collisions or ()]
     kept = match_events(kept_events, [c for c in truth.collisions if c[1] <= observed_end])
     # ... and whether the fitted replay reproduces each collision the track analysis found
     # (the fit report's collisions_used; recall = reproduced / found).

@@ -56,6 +56,7 @@ STILL_MOVING_SPEED = 0.02  # m/s: MuJoCo speed at the last observed frame above 
 VELOCITY_WINDOW = 5  # frames: the constant-velocity baseline's least-squares window
 NEAR_METRES = 0.10  # "within 10 cm"
 PREDICTORS = ("world", "hold", "const-vel")
+ROLLING_SPHERES = "roll-spheres"  # the same fit with spheres that skid then roll (FitConfig(rolling_spheres=True))
 
 
 def _future_truth(annotation: Path, index: str) -> dict | None:
@@ -114,7 +115,7 @@ def _noisy(observations: Observations, sigma: float, seed: int) -> Observations:
 
 
 def _simulator(method: str):
-    if method == "analytic":
+    if method in ("analytic", ROLLING_SPHERES):
         return None, lambda world, edits, horizon: simulate(world, edits, horizon)
 
     def stepper(world, edits, horizon):
@@ -155,7 +156,7 @@ def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None =
     cached = _cached_world(worlds, index, noise, method)
     if cached is None:
         began = time.perf_counter()
-        world, report = identify(observations, FitConfig(simulator=fit_simulator))
+        world, report = identify(observations, FitConfig(simulator=fit_simulator, rolling_spheres=method == ROLLING_SPHERES))
         seconds, evaluations = time.perf_counter() - began, report.function_evaluations
     else:
         world, seconds, evaluations = cached
@@ -168,8 +169,19 @@ def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None =
     predictive_seen = match_events(rollout_collisions(base, truth.observed_frames), future_seen)
     future = _future_truth(annotation, index)
     ahead = None if future is None else _ahead_errors(world, observations, future, score_simulator)
+    # The collisions the world keeps as observed (identification's), against MuJoCo's in the video.
+    observed_end = truth.observed_frames - 1
+    kept_events = [((a, b), frame) for a, b, frame in world.observed_collisions or ()]
+    kept = match_events(kept_events, [c for c in truth.collisions if c[1] <= observed_end])
+    # ... and whether the fitted replay reproduces each collision the track analysis found
+    # (the fit report's collisions_used; recall = reproduced / found).
+    found = [((min(a, b), max(a, b)), frame) for a, b, frame in world.provenance.get("fit", {}).get("collisions_used", [])
+             if frame <= observed_end]
+    reproduced = match_events(rollout_collisions(base, 0, observed_end), found)
     return {
         "ahead": ahead,
+        "kept": _counts(kept),
+        "reproduced": _counts(reproduced),
         "scene": int(index),
         "noise": noise,
         "method": method,
@@ -199,7 +211,7 @@ def summarise(rows: list[dict]) -> list[str]:
     header = (
         f"{'method':<11} {'noise':>5} {'scenes':>7}| {'RMSE med':>8} {'p95':>6} (cm) | "
         f"{'pred P':>6} {'R':>5} {'F1':>5} | {'F1 seen':>7} | {'CF F1':>5} {'micro':>5} | "
-        f"{'obs F1':>6} | {'fit s med':>9} {'p95':>6}"
+        f"{'obs F1':>6} {'R':>5} | {'kept P':>6} {'R':>5} | {'replay R':>8} | {'fit s med':>9} {'p95':>6} {'max':>6}"
     )
     lines = [header, "-" * len(header)]
     groups: dict[tuple[str, float], list[dict]] = {}
@@ -211,6 +223,7 @@ def summarise(rows: list[dict]) -> list[str]:
         rmse = np.array([r["rmse"] for r in group]) * 100
         seconds = np.array([r["seconds"] for r in group])
         predictive, seen, observed = _sum(group, "predictive"), _sum(group, "predictive_seen"), _sum(group, "observed")
+        kept, reproduced = _sum(group, "kept"), _sum(group, "reproduced")
         cf = [f for r in group for f in r["counterfactual_f1"]]
         cf_micro = PrecisionRecall(0, 0, 0)
         for r in group:
@@ -219,7 +232,9 @@ def summarise(rows: list[dict]) -> list[str]:
         lines.append(
             f"{method:<11} {noise * 100:>4.0f}% {len(group):>4}{'' if not failed else f'+{failed}F':<3}| {np.nanmedian(rmse):>8.2f} {np.nanpercentile(rmse, 95):>6.2f}      | "
             f"{predictive.precision:>6.3f} {predictive.recall:>5.3f} {predictive.f1:>5.3f} | {seen.f1:>7.3f} | "
-            f"{np.mean(cf):>5.3f} {cf_micro.f1:>5.3f} | {observed.f1:>6.3f} | {np.median(seconds):>9.2f} {np.percentile(seconds, 95):>6.2f}"
+            f"{np.mean(cf):>5.3f} {cf_micro.f1:>5.3f} | {observed.f1:>6.3f} {observed.recall:>5.3f} | "
+            f"{kept.precision:>6.3f} {kept.recall:>5.3f} | {reproduced.recall:>8.3f} | "
+            f"{np.median(seconds):>9.2f} {np.percentile(seconds, 95):>6.2f} {np.max(seconds):>6.2f}"
         )
     lines += _ahead_table(rows)
     failures = [r for r in rows if "error" in r]
@@ -260,6 +275,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--noise", default="0,0.01,0.03", help="position noise levels, share of object size")
     parser.add_argument("--baseline", action="store_true", help="also fit with the fixed-step integrator")
     parser.add_argument("--baseline-scenes", type=int, default=None, help="limit the baseline to the first N scenes")
+    parser.add_argument("--rolling-spheres", action="store_true",
+                        help="also fit with spheres that skid then roll (FitConfig(rolling_spheres=True)), same run")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--json", type=Path, help="write every per-scene row here")
     parser.add_argument("--worlds", type=Path, default=None,
@@ -271,6 +288,8 @@ def main(argv: list[str] | None = None) -> int:
         raise SystemExit(f"no annotations under {args.dataset / 'annotations'}")
     noises = [float(v) for v in args.noise.split(",")]
     tasks = [(a, noise, "analytic", args.worlds) for noise in noises for a in annotations]
+    if args.rolling_spheres:
+        tasks += [(a, noise, ROLLING_SPHERES, None) for noise in noises for a in annotations]
     if args.baseline:
         for a in annotations[: args.baseline_scenes]:
             tasks += [(a, noise, "fixed-1/100", None) for noise in noises]

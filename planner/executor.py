@@ -213,9 +213,25 @@ class VideoExecutor:
                 self._counterfactual[object_id] = (events, rollout_id, tuple(calls), note)
         return self._counterfactual[object_id]
 
+    def observed_collisions(self) -> list[EventRecord] | None:
+        """The collisions the world keeps as seen in the video (get_world_summary), or None when the
+        world does not record them (not fitted to a video): then the replay's are used."""
+        recorded = self.summary.get("observed_collisions")
+        if recorded is None:
+            return None
+        return [EventRecord("collision", tuple(sorted(int(o) for o in c["objects"])), int(c["frame"])) for c in recorded]
+
     def scene(self) -> ProgramScene:
-        """The interpreter's view: observed events, the continuation, counterfactuals on demand."""
+        """The interpreter's view: observed events, the continuation, counterfactuals on demand.
+
+        The observed collisions are the world's record of the video when it has one (a replay
+        may miss or repeat a contact the video shows); in/out events come from the replay.
+        """
         observed = [e for e in self.base_events() if e.frame is not None and e.frame < self.observed_frames]
+        seen = self.observed_collisions()
+        if seen is not None:
+            observed = sorted([e for e in observed if e.kind != "collision"] + seen,
+                              key=lambda e: (e.frame, e.kind, e.objects))
         future = self.continuation()[0] if self._continuation is not None else []
         return ProgramScene(
             objects=self.program_objects(),
@@ -282,6 +298,9 @@ class VideoExecutor:
                 facts.append(f"unseen events: frames {self.observed_frames}..{horizon - 1} of rollout {rollout_id!r}: "
                              + (", ".join(describe_event(e) for e in events) or "none"))
             scene = self.scene()
+            if self.observed_collisions() is not None:
+                facts.append("observed collisions: the world's record of the video (get_world_summary), "
+                             "not the replay")
             if absent_removal:
                 removed = None
                 reference = tuple(e for e in scene.events if e.frame is not None and e.frame < scene.observed_frames)

@@ -38,6 +38,7 @@ def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
             "exit_frame": None if body.active_until is None else frame_of(body.active_until, world.fps),
             "initial_position": vec(body.initial.position),
             "initial_velocity": vec(body.initial.velocity),
+            **({} if body.rolling_friction is None else {"rolling_friction": r(body.rolling_friction)}),
         }
         for body in world.bodies
     ]
@@ -53,6 +54,9 @@ def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
         "objects": objects,
         "rollout_ids": session.rollout_ids(),
         "fit_error": fit_error(world),
+        # What identification saw in the video (None: the world was not fitted to one).
+        "observed_collisions": None if world.observed_collisions is None else [
+            {"objects": [int(a), int(b)], "frame": int(frame)} for a, b, frame in world.observed_collisions],
     }
 
 
@@ -62,7 +66,8 @@ TOOL = ToolSpec(
     description=(
         "Summarise the world: every object's id, shape, color, material, size and fitted parameters "
         "(mass, friction, restitution, entry frame, initial state), the video's fps and observed frames, "
-        "and the ids of the registered rollouts. Call it first to ground object descriptions to ids."
+        "the ids of the registered rollouts, and the collisions seen in the video (observed_collisions, "
+        "null for a world not fitted to a video). Call it first to ground object descriptions to ids."
     ),
     run=run,
 )

@@ -339,6 +339,23 @@ def predict_contact(mi: PlanarMotion, mj: PlanarMotion, tau_max: float, tau_flow
     return contact if contact is not None and contact.tau <= tau_max else None
 
 
+def _straight(m: PlanarMotion) -> bool:
+    """Whether the flow's acceleration is against its velocity (or zero): a straight path
+    that never speeds up. A skidding sphere's acceleration opposes its slip, not its velocity."""
+    (vx, vy), (ax, ay) = m.velocity, m.acceleration
+    accel = math.hypot(ax, ay)
+    if accel == 0.0:
+        return True
+    speed = math.hypot(vx, vy)
+    return speed > 0.0 and ax * vx + ay * vy < 0.0 and abs(vx * ay - vy * ax) <= 1e-12 * speed * accel
+
+
+def _speed_bound(m: PlanarMotion, tau_max: float) -> float:
+    """Upper bound (m/s) of the body's speed within [0, tau_max]."""
+    speed = math.hypot(*m.velocity)
+    return speed if _straight(m) else speed + math.hypot(*m.acceleration) * tau_max
+
+
 def _path_segment(m: PlanarMotion, tau_max: float) -> tuple[float, float, float, float]:
     """Start and end (x0, y0, x1, y1) of the straight path a body covers within [0, tau_max].
 
@@ -378,6 +395,11 @@ def _segments_distance(a, b) -> float:
 
 def _paths_come_close(mi: PlanarMotion, mj: PlanarMotion, tau_max: float, reach: float) -> bool:
     """False when the two centre paths never come within ``reach`` (m): no contact possible."""
+    if not (_straight(mi) and _straight(mj)):  # a skid's path curves: bound by the travel
+        travel = sum(math.hypot(*m.velocity) * tau_max + 0.5 * math.hypot(*m.acceleration) * tau_max * tau_max
+                     for m in (mi, mj))
+        gap = math.hypot(mi.position[0] - mj.position[0], mi.position[1] - mj.position[1])
+        return gap <= reach + travel
     return _segments_distance(_path_segment(mi, tau_max), _path_segment(mj, tau_max)) <= reach
 
 
@@ -413,8 +435,9 @@ def _swept_square_contact(mi, mj, d0, dv, da, tau_max) -> Contact | None:
     else:
         tau = 0.0
     # Upper bound of how fast the gap can shrink: speeds and spins only decrease within a
-    # sliding segment and are constant in flight.
-    closing_bound = (math.hypot(*mi.velocity) + math.hypot(*mj.velocity)
+    # sliding segment and are constant in flight; a skidding sphere may speed up (its
+    # acceleration is not against its velocity), by at most |a| tau_max.
+    closing_bound = (_speed_bound(mi, tau_max) + _speed_bound(mj, tau_max)
                      + abs(mi.yaw_rate) * fi.bounding_radius + abs(mj.yaw_rate) * fj.bounding_radius)
     if closing_bound <= 0:
         return None

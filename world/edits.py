@@ -63,7 +63,10 @@ def remove_object(world: World, body_id: int, from_frame: int | None = None) -> 
         anchor = world.anchor
         if anchor is not None:
             anchor = dataclasses.replace(anchor, states=tuple(s for s in anchor.states if s[0] != body_id))
-        return dataclasses.replace(world, bodies=bodies, pair_restitution=pairs, anchor=anchor)
+        observed = None if world.observed_collisions is None else tuple(
+            c for c in world.observed_collisions if body_id not in (c[0], c[1]))
+        return dataclasses.replace(world, bodies=bodies, pair_restitution=pairs, anchor=anchor,
+                                   observed_collisions=observed)
     until = from_frame / world.fps
     if body.active_until is not None and body.active_until <= until:
         return clone(world)  # already gone by then

@@ -13,6 +13,17 @@ Modes (see ``Segment.mode``):
 * ``REST`` at rest on the plane (a sliding segment of zero speed).
 * ``FLIGHT`` ballistic in 3D: ``p(t) = p_k + v_k t - g t^2 e_z / 2``,
   no friction, until the body's rest height is reached again.
+* ``SKID`` a sphere whose contact point slips (``start_sphere_segment``):
+  kinetic friction ``mu g`` against the slip velocity ``u = v - v_spin``
+  (``v_spin = (omega x r e_z)_xy``, the velocity of rolling at the current
+  spin). For a solid sphere (I = 2/5 m r^2) the slip decays at
+  ``(1 + 5/2) mu g`` along a constant direction, so the skid is one
+  quadratic with a constant acceleration vector and ends exactly at
+  ``|u| / (3.5 mu g)``; from then on the sphere rolls. Started without spin
+  it rolls on at 5/7 of its speed.
+* Rolling is a ``SLIDE`` segment at the rolling deceleration
+  ``mu_roll g`` (``Body.rolling_friction``; a rolling sphere's contact point
+  does not slip, its spin follows its velocity).
 
 Yaw (rotation about +z): while a body slides its yaw rate decays linearly and
 reaches zero exactly at the translational stopping time (constant angular
@@ -25,17 +36,22 @@ since the model has no moments of inertia to carry spin through an impulse.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-SLIDE, REST, FLIGHT = "slide", "rest", "flight"
+SLIDE, REST, FLIGHT, SKID = "slide", "rest", "flight", "skid"
 
 # Speeds below this are treated as zero (m/s): avoids stop events micro-seconds
 # after a collision that left a body with a rounding-level velocity.
 REST_SPEED = 1e-9
 # A body whose centre is this far (m) above its rest height is in flight.
 FLIGHT_HEIGHT_TOL = 1e-9
+# A sphere whose contact point slips slower than this (m/s) rolls.
+SLIP_TOL = 1e-9
+# Solid sphere, I = 2/5 m r^2: friction F slows the centre by F/m and spins the
+# contact point up by F r^2 / I = 5/2 F/m, so the slip decays 1 + 5/2 times faster.
+SOLID_SPHERE_SLIP_FACTOR = 1.0 + 5.0 / 2.0
 
 
 @dataclass(frozen=True)
@@ -44,8 +60,10 @@ class Segment:
 
     position, velocity, acceleration: (3,) world frame, m, m/s, m/s^2 at t0.
     yaw (rad), yaw_rate (rad/s), yaw_accel (rad/s^2) at t0.
-    end: time (s) of the segment's own mode change (stop or landing), inf if none.
+    end: time (s) of the segment's own mode change (stop, landing, end of a skid), inf if none.
     active: False for the pieces before a body enters or after it is removed.
+    slip: (2,) m/s, a sphere's slip velocity ``v - v_spin`` at t0 (SKID and
+    FLIGHT of a rolling sphere; zero otherwise: the spin follows the motion).
     """
 
     t0: float
@@ -58,6 +76,7 @@ class Segment:
     mode: str
     end: float
     active: bool = True
+    slip: tuple[float, float] = (0.0, 0.0)
 
     def state_at(self, t: float) -> tuple[tuple[float, float, float], tuple[float, float, float], float, float]:
         """Position (3,), velocity (3,), yaw, yaw rate at absolute time ``t`` (s)."""
@@ -69,6 +88,19 @@ class Segment:
         vel = (v[0] + a[0] * tau, v[1] + a[1] * tau, v[2] + a[2] * tau)
         yaw = self.yaw + self.yaw_rate * tau + 0.5 * self.yaw_accel * tau * tau
         return pos, vel, yaw, self.yaw_rate + self.yaw_accel * tau
+
+
+    def spin_velocity_at(self, t: float) -> tuple[float, float]:
+        """(2,) m/s: the planar velocity of rolling at the spin the body has at ``t``.
+
+        A skid's slip decays linearly to zero at ``end``; in flight the spin is
+        constant; otherwise the spin follows the velocity (rolling, rest).
+        """
+        _, v, _, _ = self.state_at(t)
+        if self.mode == SKID:
+            share = (self.end - t) / (self.end - self.t0)
+            return v[0] - self.slip[0] * share, v[1] - self.slip[1] * share
+        return v[0] - self.slip[0], v[1] - self.slip[1]
 
 
 def stopping_time(speed: float, friction: float, gravity: float) -> float:
@@ -116,6 +148,39 @@ def start_segment(
     yaw_accel = -yaw_rate / t_stop
     return Segment(t0, (px, py, rest_height), (vx, vy, 0.0), (ax, ay, 0.0),
                    yaw, yaw_rate, yaw_accel, SLIDE, t0 + t_stop)
+
+
+def start_sphere_segment(
+    t0: float,
+    position: tuple[float, float, float],
+    velocity: tuple[float, float, float],
+    spin_velocity: tuple[float, float],
+    yaw: float,
+    rest_height: float,
+    skid_friction: float,
+    rolling_friction: float,
+    gravity: float,
+) -> Segment:
+    """The segment of a rolling-model sphere from (position, velocity, spin) at ``t0``.
+
+    spin_velocity: (2,) m/s, ``(omega x r e_z)_xy``. Flight as in
+    ``start_segment`` (the spin is carried); a slipping sphere skids
+    (kinetic ``skid_friction``); one that does not slip rolls (a slide at
+    ``rolling_friction``, dimensionless: deceleration ``rolling_friction * g``).
+    """
+    ux, uy = velocity[0] - spin_velocity[0], velocity[1] - spin_velocity[1]
+    slip = math.hypot(ux, uy)
+    height = position[2] - rest_height
+    if height > FLIGHT_HEIGHT_TOL or velocity[2] > REST_SPEED:
+        flight = start_segment(t0, position, velocity, yaw, 0.0, rest_height, skid_friction, gravity)
+        return replace(flight, slip=(ux, uy))
+    if slip <= SLIP_TOL:
+        return start_segment(t0, position, velocity, yaw, 0.0, rest_height, rolling_friction, gravity)
+    decel = skid_friction * gravity
+    t_skid = slip / (SOLID_SPHERE_SLIP_FACTOR * decel)
+    return Segment(t0, (position[0], position[1], rest_height), (velocity[0], velocity[1], 0.0),
+                   (-decel * ux / slip, -decel * uy / slip, 0.0), yaw, 0.0, 0.0, SKID, t0 + t_skid,
+                   slip=(ux, uy))
 
 
 def inactive_segment(t0: float, position, yaw: float) -> Segment:

@@ -54,12 +54,18 @@ def validate_rollout_dict(document: object) -> None:
 # --------------------------------------------------------------------------- world
 
 def _state_to_dict(state: BodyState) -> dict[str, Any]:
-    return {"position": list(state.position), "velocity": list(state.velocity),
-            "yaw": float(state.yaw), "yaw_rate": float(state.yaw_rate), "time": float(state.time)}
+    document = {"position": list(state.position), "velocity": list(state.velocity),
+                "yaw": float(state.yaw), "yaw_rate": float(state.yaw_rate), "time": float(state.time)}
+    # Written only when set, so documents from before the rolling model read back unchanged.
+    if state.spin_velocity is not None:
+        document["spin_velocity"] = list(state.spin_velocity)
+    return document
 
 
 def _state_from_dict(st: Mapping[str, Any]) -> BodyState:
-    return BodyState(tuple(st["position"]), tuple(st["velocity"]), st["yaw"], st["yaw_rate"], st["time"])
+    spin = st.get("spin_velocity")
+    return BodyState(tuple(st["position"]), tuple(st["velocity"]), st["yaw"], st["yaw_rate"], st["time"],
+                     None if spin is None else tuple(spin))
 
 
 def _body_to_dict(body: Body) -> dict[str, Any]:
@@ -72,6 +78,8 @@ def _body_to_dict(body: Body) -> dict[str, Any]:
         "mass": float(body.mass), "friction": float(body.friction), "restitution": float(body.restitution),
         "color": body.color, "material": body.material,
         "active_until": None if body.active_until is None else float(body.active_until),
+        # Written only for rolling spheres (older documents read back unchanged).
+        **({} if body.rolling_friction is None else {"rolling_friction": float(body.rolling_friction)}),
     }
 
 
@@ -163,6 +171,9 @@ def world_to_dict(world: World) -> dict[str, Any]:
             "time": float(world.anchor.time),
             "states": [{"body": int(i), "state": _state_to_dict(st)} for i, st in world.anchor.states],
         },
+        # Written only when known, so older documents read back unchanged.
+        **({"observed_collisions": [{"bodies": [a, b], "frame": f} for a, b, f in world.observed_collisions]}
+           if world.observed_collisions is not None else {}),
     }
 
 
@@ -179,7 +190,8 @@ def world_from_dict(document: Mapping[str, Any]) -> World:
                             half_height=s["half_height"], mesh_path=s["mesh_path"]),
                 initial=_state_from_dict(st),
                 mass=b["mass"], friction=b["friction"], restitution=b["restitution"],
-                color=b["color"], material=b["material"], active_until=b["active_until"]))
+                color=b["color"], material=b["material"], active_until=b["active_until"],
+                rolling_friction=b.get("rolling_friction")))
         except ValueError as error:
             raise ValueError(f"bodies[{index}]: {error}") from None
     camera = None if document["camera"] is None else camera_from_dict(document["camera"])
@@ -193,6 +205,8 @@ def world_from_dict(document: Mapping[str, Any]) -> World:
         id=document["id"],
         provenance=json.loads(json.dumps(document["provenance"])),
         anchor=_anchor_from_dict(document.get("anchor")),
+        observed_collisions=None if "observed_collisions" not in document else
+        tuple((c["bodies"][0], c["bodies"][1], c["frame"]) for c in document["observed_collisions"]),
     )
 
 

@@ -18,6 +18,10 @@ of both bodies (otherwise a spinning cube would keep sweeping its corners
 into its partner). A spinning cube whose corner reaches a body while the
 centres separate makes a collision with zero impulse that only stops the spin.
 
+Rolling spheres (``Body.rolling_friction`` set): a collision changes the
+velocity but not the spin, so the sphere skids until its contact point stops
+slipping (flows.SKID, an internal event like landing), then rolls.
+
 Zeno guard: a pair that collides again with a normal approach speed below
 ``SETTLE_SPEED``, or for the ``ZENO_REPEATS + 1``-th time within ``ZENO_INTERVAL``, is in
 sustained (pushing) contact, which a chain of impulses would resolve only in
@@ -41,7 +45,7 @@ from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of
 from world.camera import footprint_visible, view_events
 from world.contacts import CIRCLE, SQUARE, Footprint, PlanarMotion, closing, footprint_distance, predict_contact
 from world.edits import apply_edits
-from world.flows import FLIGHT, REST, Segment, evaluate_segments, inactive_segment, start_segment
+from world.flows import FLIGHT, REST, SKID, Segment, evaluate_segments, inactive_segment, start_segment, start_sphere_segment
 from world.types import Body, Edit, Event, Rollout, World
 
 MAX_EVENTS = 20_000
@@ -124,9 +128,17 @@ class _Engine:
         until = body.active_until if body.active_until is not None else math.inf
         return min(self.segments[k].end, until)
 
-    def _set_segment(self, k: int, t: float, position, velocity, yaw: float, yaw_rate: float) -> None:
+    def _set_segment(self, k: int, t: float, position, velocity, yaw: float, yaw_rate: float,
+                     spin_velocity: tuple[float, float] | None = None, plain: bool = False) -> None:
+        """Start body k's next segment. spin_velocity: (2,) m/s of a rolling sphere (None: it
+        rolls); plain: slide at ``self.friction[k]`` whatever the body (a settled cluster)."""
         body = self.bodies[k]
-        seg = start_segment(t, position, velocity, yaw, yaw_rate, body.shape.rest_height, self.friction[k], self.g)
+        if body.rolls and not plain:
+            spin = (velocity[0], velocity[1]) if spin_velocity is None else spin_velocity
+            seg = start_sphere_segment(t, position, velocity, spin, yaw, body.shape.rest_height,
+                                       body.friction, body.rolling_friction, self.g)
+        else:
+            seg = start_segment(t, position, velocity, yaw, yaw_rate, body.shape.rest_height, self.friction[k], self.g)
         self.segments[k] = seg
         self.logs[k].append(seg)
 
@@ -135,7 +147,7 @@ class _Engine:
         if self.status[k] == "pending":
             self.status[k] = "active"
             init = body.initial
-            self._set_segment(k, t, init.position, init.velocity, init.yaw, init.yaw_rate)
+            self._set_segment(k, t, init.position, init.velocity, init.yaw, init.yaw_rate, init.spin_velocity)
             return
         seg = self.segments[k]
         position, velocity, yaw, yaw_rate = seg.state_at(t)
@@ -147,7 +159,10 @@ class _Engine:
         if seg.mode == FLIGHT:  # landing: plastic impact with the plane (vz -> 0), then slide
             self.friction[k] = body.friction
             self._set_segment(k, t, (position[0], position[1], body.shape.rest_height),
-                              (velocity[0], velocity[1], 0.0), yaw, yaw_rate)
+                              (velocity[0], velocity[1], 0.0), yaw, yaw_rate, seg.spin_velocity_at(t))
+            return
+        if seg.mode == SKID:  # the contact point stops slipping: the sphere rolls on (no event)
+            self._set_segment(k, t, position, velocity, yaw, 0.0)
             return
         # Coulomb stop: exactly at rest from now on.
         self._set_segment(k, t, position, (0.0, 0.0, 0.0), yaw, 0.0)
@@ -201,6 +216,8 @@ class _Engine:
         body_a, body_b = self.bodies[a], self.bodies[b]
         pa, va, yaw_a, wa = self.segments[a].state_at(t)
         pb, vb, yaw_b, wb = self.segments[b].state_at(t)
+        # An impulse changes a sphere's velocity, not its spin (it skids afterwards).
+        spin_a, spin_b = self.segments[a].spin_velocity_at(t), self.segments[b].spin_velocity_at(t)
         nx, ny = contact.normal  # from b to a
         vn = (va[0] - vb[0]) * nx + (va[1] - vb[1]) * ny
         ids = tuple(sorted((body_a.id, body_b.id)))
@@ -215,8 +232,8 @@ class _Engine:
                 return []
             # A spinning square swept into the other while the centres do not close in:
             # the central impulse cannot act, so the impact only stops the spin.
-            self._set_segment(a, t, pa, va, yaw_a, 0.0)
-            self._set_segment(b, t, pb, vb, yaw_b, 0.0)
+            self._set_segment(a, t, pa, va, yaw_a, 0.0, spin_a)
+            self._set_segment(b, t, pb, vb, yaw_b, 0.0, spin_b)
             self._record(t, Event("collision", ids, t, frame_of(t, self.world.fps),
                                   (contact.point[0], contact.point[1], height), 0.0))
             return [a, b]
@@ -237,8 +254,8 @@ class _Engine:
             new_vb = (vb[0] - j / mb * nx, vb[1] - j / mb * ny, vb[2])
             self.friction[a], self.friction[b] = body_a.friction, body_b.friction
             # Collisions stop the spin (the model has no angular impulse; see module doc).
-            self._set_segment(a, t, pa, new_va, yaw_a, 0.0)
-            self._set_segment(b, t, pb, new_vb, yaw_b, 0.0)
+            self._set_segment(a, t, pa, new_va, yaw_a, 0.0, spin_a)
+            self._set_segment(b, t, pb, new_vb, yaw_b, 0.0, spin_b)
         self._record(t, Event("collision", ids, t, frame_of(t, self.world.fps),
                               (contact.point[0], contact.point[1], height), float(impulse)))
         return members
@@ -274,13 +291,13 @@ class _Engine:
         total = sum(masses.values())
         vx = sum(masses[k] * states[k][1][0] for k in members) / total
         vy = sum(masses[k] * states[k][1][1] for k in members) / total
-        shared = sum(masses[k] * self.bodies[k].friction for k in members) / total
+        shared = sum(masses[k] * self.bodies[k].sliding_deceleration_coefficient for k in members) / total
         ref_v = states[reference][1]
         impulse = masses[reference] * math.hypot(vx - ref_v[0], vy - ref_v[1])
         for k in members:
             position, velocity, yaw, yaw_rate = states[k]
             self.friction[k] = shared
-            self._set_segment(k, t, position, (vx, vy, velocity[2]), yaw, 0.0)
+            self._set_segment(k, t, position, (vx, vy, velocity[2]), yaw, 0.0, plain=True)
         return impulse
 
     def _apply_anchor(self, t: float) -> None:
@@ -292,7 +309,7 @@ class _Engine:
             if self.status[k] != "active":
                 continue  # not entered yet, or removed: nothing to re-anchor
             self.friction[k] = self.bodies[k].friction
-            self._set_segment(k, t, state.position, state.velocity, state.yaw, state.yaw_rate)
+            self._set_segment(k, t, state.position, state.velocity, state.yaw, state.yaw_rate, state.spin_velocity)
             reset.append(k)
         self.anchor = None
         self.last_collision.clear()

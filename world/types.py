@@ -105,6 +105,10 @@ class BodyState:
     position: (3,) float64, metres, world frame (z is the centre's height).
     velocity: (3,) float64, m/s.
     yaw: radians about +z; yaw_rate: rad/s.
+    spin_velocity: (2,) m/s or None, for a sphere with a rolling model
+    (``Body.rolling_friction``): the planar velocity of rolling without slip
+    at its spin, ``(omega x r e_z)_xy``. None: it rolls (equal to the planar
+    velocity); (0, 0): no spin, so it skids first.
     """
 
     position: tuple[float, float, float]
@@ -112,6 +116,7 @@ class BodyState:
     yaw: float = 0.0
     yaw_rate: float = 0.0
     time: float = 0.0
+    spin_velocity: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         for name in ("position", "velocity"):
@@ -121,6 +126,10 @@ class BodyState:
         for name in ("yaw", "yaw_rate", "time"):
             _require(_finite(getattr(self, name)), f"{name}: expected a finite number, got {getattr(self, name)!r}")
         _require(self.time >= 0, f"time: must be >= 0, got {self.time!r}")
+        if self.spin_velocity is not None:
+            _require(len(self.spin_velocity) == 2 and all(_finite(v) for v in self.spin_velocity),
+                     f"spin_velocity: expected 2 finite numbers or None, got {self.spin_velocity!r}")
+            object.__setattr__(self, "spin_velocity", tuple(float(v) for v in self.spin_velocity))
 
 
 @dataclass(frozen=True)
@@ -133,6 +142,11 @@ class Body:
     None keeps it to the end of any rollout.
     mass: kg (> 0); friction: Coulomb coefficient with the plane (> 0);
     restitution: default coefficient for its collisions, in [0, 1].
+    rolling_friction: spheres only, optional: the sphere rolls (docs/engine.md,
+    "Flows"): it decelerates at ``rolling_friction * g`` while rolling, and
+    ``friction`` is then its kinetic (skid) friction while its contact point
+    slips, e.g. after a collision. None: it slides at ``friction * g`` like
+    any other body (worlds written before the rolling model).
     """
 
     id: int
@@ -144,6 +158,7 @@ class Body:
     color: str | None = None
     material: str | None = None
     active_until: float | None = None
+    rolling_friction: float | None = None
 
     def __post_init__(self) -> None:
         _require(isinstance(self.id, (int, np.integer)) and not isinstance(self.id, bool) and self.id >= 0, f"body.id: expected an integer >= 0, got {self.id!r}")
@@ -152,8 +167,21 @@ class Body:
         _require(_finite(self.restitution) and 0 <= self.restitution <= 1, f"body {self.id}: restitution must be in [0, 1], got {self.restitution!r}")
         _require(self.color is None or self.color in COLORS, f"body {self.id}: color: expected one of {COLORS}, got {self.color!r}")
         _require(self.material is None or self.material in MATERIALS, f"body {self.id}: material: expected one of {MATERIALS}, got {self.material!r}")
+        if self.rolling_friction is not None:
+            _require(self.shape.kind == "sphere", f"body {self.id}: rolling_friction applies to spheres only, not a {self.shape.kind}")
+            _require(_finite(self.rolling_friction) and self.rolling_friction > 0, f"body {self.id}: rolling_friction must be a finite number > 0, got {self.rolling_friction!r}")
         if self.active_until is not None:
             _require(_finite(self.active_until) and self.active_until > self.initial.time, f"body {self.id}: active_until must be after initial.time, got {self.active_until!r}")
+
+    @property
+    def rolls(self) -> bool:
+        """Whether the body follows the sphere's skid-then-roll model."""
+        return self.rolling_friction is not None
+
+    @property
+    def sliding_deceleration_coefficient(self) -> float:
+        """Deceleration / g (dimensionless) of its ordinary motion: rolling, or sliding."""
+        return self.rolling_friction if self.rolling_friction is not None else self.friction
 
     @property
     def attributes(self) -> dict[str, str | None]:
@@ -222,6 +250,10 @@ class World:
     per-body restitution for a pair (order of ids does not matter).
     camera: optional, needed for in/out-of-view events.
     anchor: optional re-anchoring of the unedited continuation (see Anchor).
+    observed_collisions: ``((id_a, id_b, frame), ...)``, ids sorted, the
+    collisions seen in the observed video (identification's events, the
+    evidence explanatory answers rest on); None when unknown (a world not
+    fitted to a video).
     provenance: free-form record of where the parameters came from
     (e.g. the fit report); kept JSON-serialisable.
     """
@@ -235,6 +267,7 @@ class World:
     id: str = "world"
     provenance: Mapping[str, object] = field(default_factory=dict)
     anchor: Anchor | None = None
+    observed_collisions: tuple[tuple[int, int, int], ...] | None = None
 
     def __post_init__(self) -> None:
         ids = [b.id for b in self.bodies]
@@ -246,6 +279,15 @@ class World:
         for a, b, e in self.pair_restitution:
             _require(a in known and b in known, f"pair_restitution: unknown body id in pair ({a}, {b}); known ids {sorted(known)}")
             _require(_finite(e) and 0 <= e <= 1, f"pair_restitution: e for ({a}, {b}) must be in [0, 1], got {e!r}")
+        collisions = []
+        for entry in self.observed_collisions or ():
+            _require(len(entry) == 3, f"observed_collisions: expected (id_a, id_b, frame), got {entry!r}")
+            a, b, frame = (int(v) for v in entry)
+            _require(a in known and b in known and a < b, f"observed_collisions: ({a}, {b}) must be two known body ids, ascending; known ids {sorted(known)}")
+            _require(0 <= frame < max(self.observed_frames, 1), f"observed_collisions: frame {frame} of ({a}, {b}) is outside the observed frames 0..{self.observed_frames - 1}")
+            collisions.append((a, b, frame))
+        if self.observed_collisions is not None:
+            object.__setattr__(self, "observed_collisions", tuple(sorted(collisions, key=lambda c: (c[2], c[0], c[1]))))
         if self.anchor is not None:
             for body_id, _ in self.anchor.states:
                 _require(body_id in known, f"anchor.states: unknown body id {body_id}; known ids {sorted(known)}")

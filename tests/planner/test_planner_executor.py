@@ -7,6 +7,7 @@ tools only (list_events, simulate_edit, compare_rollouts, check_contact).
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import json
 import math
@@ -250,3 +251,22 @@ def test_predictive_answers_continue_from_the_anchored_end_state(tool_client):
     answer = executor.answer_text("Which event will happen next?", ["The red cube collides with the blue cube"])
     assert answer.verdicts == ["correct"]
     assert not any(c.tool == "simulate_edit" for c in executor.world.calls)
+
+
+def test_explanatory_answers_come_from_the_observed_collisions(tool_client, six_world):
+    """The world's record of the video decides, not the replay: a collision the record lacks is
+    no cause even though the replay has it, and the record's own collisions are causes."""
+    rollout = simulate(six_world)
+    replayed = [(min(e.bodies), max(e.bodies), e.frame) for e in rollout.events
+                if e.kind == "collision" and e.frame < six_world.observed_frames]
+    assert any(c[:2] == (0, 1) for c in replayed)
+    record = tuple(c for c in replayed if c[:2] != (0, 1))
+    world = tool_client.create_world(world_to_dict(dataclasses.replace(six_world, observed_collisions=record)))
+    executor = VideoExecutor(world)
+    question = "Which of the following is responsible for the collision between the yellow object and the purple object?"
+    choices = ["the collision between the red object and the blue object", "the collision between the blue object and the green object"]
+    answer = executor.answer_text(question, choices)
+    assert answer.verdicts == ["wrong", "correct"]
+    assert any("record of the video" in fact for fact in answer.facts)
+    replay_only = VideoExecutor(tool_client.create_world(world_to_dict(six_world))).answer_text(question, choices)
+    assert replay_only.verdicts == ["correct", "correct"]  # the replay alone says otherwise

@@ -61,7 +61,9 @@ def run(args: argparse.Namespace) -> int:
         defaulted = f" defaulted: {', '.join(item.defaulted)}" if item.defaulted else ""
         print(
             f"object {item.id} ({label}): enters t={body.initial.time:.2f}s speed={speed:.2f}m/s "
-            f"mu={body.friction:.3f} mass={body.mass:.2f} rmse={item.rmse * 100:.1f}cm{defaulted}"
+            + (f"mu={body.friction:.3f} " if not body.rolls else
+               f"rolling mu={body.rolling_friction:.3f} skid mu={body.friction:.3f} ")
+            + f"mass={body.mass:.2f} rmse={item.rmse * 100:.1f}cm{defaulted}"
         )
     print(
         f"fit: {len(world.bodies)} bodies, {len(report.collisions_used)} collisions used, "

@@ -25,10 +25,13 @@ FIXTURES = Path(__file__).resolve().parents[2] / "data" / "synth"
 
 
 def _body(body_id, kind, xy, velocity, mass, friction, color, material="rubber"):
+    """``friction``: the body's deceleration / g (a sphere rolls at it, and skids at 0.4)."""
     shape = default_shape(kind)
+    sphere = kind == "sphere"
     return Body(
         body_id, shape, BodyState((xy[0], xy[1], shape.rest_height), (velocity[0], velocity[1], 0.0)),
-        mass=mass, friction=friction, restitution=0.75, color=color, material=material,
+        mass=mass, friction=0.4 if sphere else friction, restitution=0.75, color=color, material=material,
+        rolling_friction=friction if sphere else None,
     )
 
 
@@ -47,7 +50,7 @@ CHAIN = World(
     (
         _body(0, "cylinder", (-2.2, 0.02), (3.2, 0.0), 1.0, 0.08, "red"),
         _body(1, "sphere", (-0.6, 0.0), (0.0, 0.0), 2.5, 0.06, "blue", "metal"),
-        _body(2, "cylinder", (0.7, 0.1), (0.0, 0.0), 1.2, 0.1, "green"),
+        _body(2, "cylinder", (0.3, 0.1), (0.0, 0.0), 1.2, 0.1, "green"),
         _body(3, "cube", (1.0, 2.0), (0.0, 0.0), 1.0, 0.07, "yellow"),
     ),
     observed_frames=100,
@@ -63,14 +66,14 @@ GLANCING = World(
 
 @pytest.mark.parametrize("world", [CHAIN, GLANCING], ids=["chain", "glancing"])
 def test_recovers_parameters_from_noiseless_engine_tracks(world):
-    fitted, report = identify(_observe(world, world.observed_frames))
+    fitted, report = identify(_observe(world, world.observed_frames), FitConfig(rolling_spheres=True))
     truth_events = [(e.bodies, e.frame) for e in simulate(world).events if e.kind == "collision"]
     assert truth_events, "the scene must contain collisions to identify"
     for true, fit in zip(world.bodies, fitted.bodies):
         np.testing.assert_allclose(fit.initial.position[:2], true.initial.position[:2], atol=2e-3)
         np.testing.assert_allclose(fit.initial.velocity[:2], true.initial.velocity[:2], atol=2e-2)
         if "friction" in report.objects[true.id].identified:
-            assert fit.friction == pytest.approx(true.friction, rel=0.05)
+            assert fit.sliding_deceleration_coefficient == pytest.approx(true.sliding_deceleration_coefficient, rel=0.05)
     # Mass ratios and restitution of every observed collision.
     for (a, b), _ in truth_events:
         true_ratio = world.body(a).mass / world.body(b).mass
@@ -155,3 +158,29 @@ def test_time_budget_keeps_the_best_fit_and_says_so():
     _, none = identify(observations, FitConfig(time_budget_seconds=0.0))
     assert none.budget_exhausted and none.skipped_stages == full.stages and none.function_evaluations == 0
     assert none.to_dict()["budget_exhausted"] is True
+
+
+def test_the_replay_adds_the_collisions_the_track_analysis_missed():
+    from dataclasses import replace as _replace
+
+    from world.identify.fit import with_replayed_collisions
+
+    replayed = [(min(e.bodies), max(e.bodies), e.frame) for e in simulate(CHAIN, horizon_frames=CHAIN.observed_frames).events
+                if e.kind == "collision"]
+    assert len(replayed) == 2
+    first, second = replayed
+    # The record holds the first collision two frames off: kept as is, not duplicated; the second is added.
+    record = ((first[0], first[1], first[2] + 2),)
+    merged = with_replayed_collisions(_replace(CHAIN, observed_collisions=record))
+    assert merged.observed_collisions == (record[0], second)
+    # Nothing recorded and nothing replayed stays as it is.
+    alone = World((CHAIN.bodies[3],), observed_frames=50, observed_collisions=())
+    assert with_replayed_collisions(alone).observed_collisions == ()
+
+
+def test_identify_keeps_the_observed_collisions():
+    fitted, report = identify(_observe(CHAIN, CHAIN.observed_frames), FitConfig(rolling_spheres=True))
+    truth = [((min(e.bodies), max(e.bodies)), e.frame) for e in simulate(CHAIN, horizon_frames=CHAIN.observed_frames).events if e.kind == "collision"]
+    kept = [((a, b), f) for a, b, f in fitted.observed_collisions]
+    assert [p for p, _ in kept] == [p for p, _ in truth]
+    assert all(abs(f - g) <= 2 for (_, f), (_, g) in zip(kept, truth))

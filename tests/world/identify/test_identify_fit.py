@@ -9,6 +9,7 @@ Two kinds of checks, kept apart on purpose:
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +17,7 @@ import pytest
 import trimesh
 
 from bench.metrics import GroundTruth, rollout_collisions
-from world.identify.fit import FitConfig, identify, prior_mass
+from world.identify.fit import FitConfig, identify, prior_mass, with_replayed_collisions
 from world.observations import ObjectTrack, Observations, default_shape
 from world.rollout import simulate
 from world.types import Body, BodyState, Edit, Shape, World
@@ -161,17 +162,13 @@ def test_time_budget_keeps_the_best_fit_and_says_so():
 
 
 def test_the_replay_adds_the_collisions_the_track_analysis_missed():
-    from dataclasses import replace as _replace
-
-    from world.identify.fit import with_replayed_collisions
-
     replayed = [(min(e.bodies), max(e.bodies), e.frame) for e in simulate(CHAIN, horizon_frames=CHAIN.observed_frames).events
                 if e.kind == "collision"]
     assert len(replayed) == 2
     first, second = replayed
     # The record holds the first collision two frames off: kept as is, not duplicated; the second is added.
     record = ((first[0], first[1], first[2] + 2),)
-    merged = with_replayed_collisions(_replace(CHAIN, observed_collisions=record))
+    merged = with_replayed_collisions(replace(CHAIN, observed_collisions=record))
     assert merged.observed_collisions == (record[0], second)
     # Nothing recorded and nothing replayed stays as it is.
     alone = World((CHAIN.bodies[3],), observed_frames=50, observed_collisions=())

@@ -16,6 +16,7 @@ from world.types import Rollout
 from tools.common import DEFAULT_CONTACT_TOLERANCE, DEFAULT_FRAME_TOLERANCE, PairEvidence, pair_evidence, pair_query
 from tools.registry import ToolSpec
 from tools.session import BASE_ROLLOUT_ID, WorldSession
+from tools.scene3d import check_contact3d
 
 NAME = "check_contact"
 STATUS = {"collision_event": "collision", "footprint_scan": "contact", "none": "no_contact"}
@@ -98,4 +99,5 @@ TOOL = ToolSpec(
         "with the base rollout under a 5-frame tolerance."
     ),
     run=run,
+    run3d=check_contact3d,
 )

@@ -94,3 +94,9 @@ def limit_exceeded(tool: str | None, pointer: str, message: str, limit: Any) -> 
         code="limit_exceeded", message=message, tool=tool, pointer=pointer,
         expected=f"<= {limit}", status=422, extra={"limit": limit},
     )
+
+
+def not_available_in_3d(tool: str, available: Sequence[str]) -> ToolError:
+    """A tool that has no meaning on a 3D world (no edits, no camera there)."""
+    return ToolError(code="not_available_in_3d", message=f"{tool} is not available on a 3D world; the tools that are: {list(available)}",
+                     tool=tool, pointer="", expected=f"one of {list(available)}", status=422)

@@ -9,6 +9,7 @@ from world.timebase import frame_of
 from tools.common import fit_error, r, vec
 from tools.registry import ToolSpec
 from tools.session import WorldSession, default_horizon_frames
+from tools.scene3d import get_world_summary3d
 
 NAME = "get_world_summary"
 
@@ -65,4 +66,5 @@ TOOL = ToolSpec(
         "and the ids of the registered rollouts. Call it first to ground object descriptions to ids."
     ),
     run=run,
+    run3d=get_world_summary3d,
 )

@@ -21,6 +21,10 @@ from world.scene3d.motion import (
 from world.scene3d.types import Body3D, Face, Phase3D, State3D, StaticBox, World3D
 
 MAX_EVENTS = 4000  # guard against endless chatter
+# Resting contact between two bodies (one lying on the other) is not modelled: impulses then repeat
+# without time advancing. This many collisions of one pair within RESTING_WINDOW end the rollout.
+RESTING_COLLISIONS = 3
+RESTING_WINDOW = 1e-4  # s
 OFF_FALL_LINE_STEP = 0.02  # s: re-evaluate friction direction this often when sliding across a slope
 
 
@@ -50,9 +54,13 @@ class Event3D:
 
 @dataclass(frozen=True)
 class Rollout3D:
+    """Segments and events up to ``end_time`` (s): the horizon, the queried contact, or where the
+    engine stopped (``notes`` says why, e.g. two bodies came to rest on each other)."""
+
     segments: tuple[Segment, ...]
     events: tuple[Event3D, ...]
     end_time: float
+    notes: tuple[str, ...] = ()
 
     def state(self, body_id: int, time: float) -> State3D:
         """Position and velocity of a body at ``time`` (within the rollout)."""
@@ -145,6 +153,8 @@ def simulate3d(world: World3D, phase: Phase3D, horizon: float, *, start_time: fl
         moving[body_id] = _Moving(body, p, v, face)
     segments: list[Segment] = []
     events: list[Event3D] = []
+    notes: list[str] = []
+    recent_collisions: dict[tuple[int, int], list[float]] = {}
     ids = sorted(moving)
     for _ in range(MAX_EVENTS):
         if t >= horizon - 1e-12:
@@ -252,7 +262,15 @@ def simulate3d(world: World3D, phase: Phase3D, horizon: float, *, start_time: fl
             if query is not None and not query_static and {i, j} == set(query):
                 events.append(Event3D(t, "contact", (query[0], query[1])))
                 break
-    return Rollout3D(tuple(segments), tuple(events), t)
+            recent = [c for c in recent_collisions.get((i, j), []) if t - c <= RESTING_WINDOW] + [t]
+            recent_collisions[(i, j)] = recent
+            if len(recent) >= RESTING_COLLISIONS:
+                notes.append(f"bodies {i} and {j} come to rest on each other at t = {t:.3f} s; resting contact "
+                             "between bodies is not modelled, so the continuation ends there")
+                break
+    else:
+        notes.append(f"the event cap ({MAX_EVENTS}) was reached at t = {t:.3f} s; the continuation ends there")
+    return Rollout3D(tuple(segments), tuple(events), t, tuple(notes))
 
 
 def _closing(a: _Moving, b: _Moving) -> bool:

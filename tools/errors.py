@@ -96,7 +96,9 @@ def limit_exceeded(tool: str | None, pointer: str, message: str, limit: Any) -> 
     )
 
 
-def not_available_in_3d(tool: str, available: Sequence[str]) -> ToolError:
-    """A tool that has no meaning on a 3D world (no edits, no camera there)."""
-    return ToolError(code="not_available_in_3d", message=f"{tool} is not available on a 3D world; the tools that are: {list(available)}",
-                     tool=tool, pointer="", expected=f"one of {list(available)}", status=422)
+def not_available_in_3d(what: str, available: Sequence[str], tool: str | None = None) -> ToolError:
+    """``what`` (a tool, or an endpoint) has no meaning on a 3D world (no edits, no camera there)."""
+    listing = f"; the tools that are: {list(available)}" if available else ""
+    return ToolError(code="not_available_in_3d", message=f"{what} is not available on a 3D world{listing}",
+                     tool=tool, pointer="", expected=f"one of {list(available)}" if available else "a 2D (tabletop) world",
+                     status=422)

@@ -237,7 +237,7 @@ def call_tool(name: str, session: Any, args: Any, *, validate_results: bool = Tr
     run = tool.spec.run
     if getattr(session, "is_3d", False):
         if tool.spec.run3d is None:
-            raise not_available_in_3d(tool.name, [t.name for t in tool_registry().values() if t.spec.run3d is not None])
+            raise not_available_in_3d(tool.name, [t.name for t in tool_registry().values() if t.spec.run3d is not None], tool.name)
         run = tool.spec.run3d
     validate_args(tool, args)
     try:

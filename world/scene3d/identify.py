@@ -13,7 +13,8 @@
   gives m_j / m_i = -dv_i.n / dv_j.n, and e = -(v_j' - v_i').n / (v_j - v_i).n.
 
 Uncertainties are one standard deviation from the fits' residuals (delta
-method); several measurements of one property combine by inverse variance.
+method); several measurements of one property combine by inverse variance
+plus the spread between them (a random-effects mean, ``_combine``).
 Array shapes: times (T,), positions (T, 3); units m, s, kg.
 """
 
@@ -78,8 +79,22 @@ def poly_fit(times: np.ndarray, values: np.ndarray, degree: int) -> tuple[np.nda
 
 
 def _combine(values: list[float], stds: list[float]) -> tuple[float, float]:
-    weights = 1.0 / np.maximum(np.asarray(stds), 1e-6) ** 2
-    return float(np.sum(weights * values) / np.sum(weights)), float(1.0 / math.sqrt(np.sum(weights)))
+    """Several measurements of one property: a random-effects mean (DerSimonian-Laird) and its std.
+
+    When the measurements disagree by more than their fit noise (MuJoCo's soft contact realises a
+    different restitution at each impact: wall against floor, fast against slow), plain inverse-variance
+    weights let the one best-fitted impact decide and understate the uncertainty. The between-measurement
+    variance tau^2 (zero when they agree within their noise) is added to each measurement's variance.
+    """
+    x = np.asarray(values, float)
+    variances = np.maximum(np.asarray(stds, float), 1e-6) ** 2
+    weights = 1.0 / variances
+    fixed = float(np.sum(weights * x) / np.sum(weights))
+    spread = float(np.sum(weights * (x - fixed) ** 2)) - (len(x) - 1)
+    scale = float(np.sum(weights) - np.sum(weights**2) / np.sum(weights))
+    tau2 = max(spread, 0.0) / scale if scale > 0 else 0.0
+    weights = 1.0 / (variances + tau2)
+    return float(np.sum(weights * x) / np.sum(weights)), float(1.0 / math.sqrt(np.sum(weights)))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:

@@ -107,6 +107,24 @@ def _support_face(body: Body3D, p: np.ndarray, v: np.ndarray, faces: list[Face])
     return best
 
 
+def _resolve_starting_contacts(body: Body3D, p: np.ndarray, v: np.ndarray, faces: list[Face]) -> np.ndarray:
+    """The velocity (3,) of a body that starts at contact distance of a face while moving into it.
+
+    No root of the contact distance lies ahead then (the body would pass through the face), so the
+    normal part is reflected at once, scaled by the body's restitution and without a friction
+    impulse: a starting state (e.g. a tracked frame) carries contact jitter of a few tenths of a m/s
+    on a sliding body, which must not brake it, while a real impact keeps its rebound.
+    """
+    for face in faces:
+        normal = np.asarray(face.normal)
+        rel = p - np.asarray(face.center)
+        inside = abs(rel @ np.asarray(face.axis_u)) <= face.half_u and abs(rel @ np.asarray(face.axis_v)) <= face.half_v
+        v_n = float(v @ normal)
+        if inside and abs(float(rel @ normal) - body.half_size) <= SURFACE_TOLERANCE and v_n < 0:
+            v = v - (1.0 + body.restitution) * v_n * normal
+    return v
+
+
 def _acceleration(m: _Moving, gravity: float) -> np.ndarray:
     if m.dwell_face is not None:  # held at the surface: only the in-plane part of gravity acts
         n = np.asarray(m.dwell_face.normal)
@@ -147,6 +165,7 @@ def simulate3d(world: World3D, phase: Phase3D, horizon: float, *, start_time: fl
     for body_id, state in initial.items():
         body = world.body(body_id)
         p, v = np.asarray(state.position, float), np.asarray(state.velocity, float)
+        v = _resolve_starting_contacts(body, p, v, faces)
         face = _support_face(body, p, v, faces)
         if face is not None:
             v = v - float(v @ np.asarray(face.normal)) * np.asarray(face.normal)

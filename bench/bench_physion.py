@@ -1,9 +1,11 @@
 """Physion-style contact prediction from oracle tracks: accuracy and latent-property error per category.
 
 Input: a dataset written by ``physmind synth --suite physion`` (annotations =
-oracle tracks; ground_truth = MuJoCo's truth). Per trial: identify, continue,
-answer (``physmind.physion_eval.evaluate_trial``, the same path as
-``physmind eval``), then compare the fitted latent property with the truth:
+oracle tracks; ground_truth = MuJoCo's truth). Per trial: identify, register
+the world on a local tool server and answer through the tools
+(``physmind.physion_eval.evaluate_trials``, the same path as ``physmind eval``:
+get_world_summary, continue_world, check_contact), then compare the fitted
+latent property with the truth:
 
 * friction: the agent's Coulomb coefficient (MuJoCo's parameter; Coulomb
   sliding realises it exactly);
@@ -19,7 +21,7 @@ trials whose property is within the target (10 %; mass ratio 20 %), the
 median relative error, and the number of trials without a property fit.
 
 Usage:
-    python -m bench.bench_physion DATASET_DIR [--limit N]
+    python -m bench.bench_physion DATASET_DIR [--limit N] [--workers N]
 """
 
 from __future__ import annotations
@@ -28,7 +30,8 @@ import argparse
 import statistics
 from pathlib import Path
 
-from physmind.physion_eval import TABLE_COLUMNS, evaluate_trial, load_trials
+from physmind.local_server import local_server
+from physmind.physion_eval import TABLE_COLUMNS, evaluate_trials, load_trials
 from world.io import read_json_file
 
 TARGETS = {"friction": 0.10, "restitution": 0.10, "mass": 0.20}
@@ -66,11 +69,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("dataset", type=Path)
     parser.add_argument("--limit", type=int, default=None)
+    parser.add_argument("--workers", type=int, default=1, help="processes fitting the worlds")
     args = parser.parse_args()
     trials = load_trials(args.dataset)[: args.limit]
     rows: dict[str, list] = {}
-    for trial in trials:
-        record = evaluate_trial(args.dataset, trial)
+    with local_server() as url:
+        records = evaluate_trials(args.dataset, trials, url, args.workers, progress=True)
+    failed = [r for r in records if r.error]
+    for record in failed:
+        print(f"trial {record.index}: failed: {record.error}")
+    for record in records:
         truth = read_json_file(args.dataset / "ground_truth" / f"trial_{record.index:05d}.json", "ground truth")
         annotation = read_json_file(args.dataset / "annotations" / f"annotation_{record.index:05d}.json", "annotation")
         truth["boundary_time"] = annotation["prediction_boundary_frame"] / annotation["fps"]

@@ -2,12 +2,17 @@
 
 Per trial: read the annotation (oracle tracks), identify the latent
 properties from the pre-curtain (or early) motion, carry them across the
-curtain, continue the last phase from the prediction boundary in the 3D
-analytic engine (``world.scene3d``) and answer "Will the red object contact
-the yellow object?" from the engine's contact query. The HTTP tools
-(check_contact) serve the 2D tabletop world only, so this path calls the 3D
-engine directly. Prints per-category and overall per-scene accuracy in the
-paper's Table 2 layout and writes one record per trial to the -o report.
+curtain and anchor the 3D world at the prediction boundary
+(``world.scene3d.predict.fit_world``; ``--workers`` processes or ``--dask``, ``--cache``
+keeps the fitted worlds). Then the question "Will the red object contact the
+yellow object?" is parsed and answered THROUGH THE TOOLS over HTTP, as the
+CLEVRER eval is: the world is registered (POST /v1/worlds), get_world_summary
+grounds the red agent and the yellow patient (a body or the patient zone),
+continue_world runs the factual continuation to the horizon and check_contact
+answers on it; its evidence names the fitted property and the contact time or
+the closest approach. A local server is started unless ``--server`` names one.
+Prints per-category and overall per-scene accuracy in the paper's Table 2
+layout and writes one record per trial (with its tool calls) to the -o report.
 """
 
 from __future__ import annotations
@@ -17,18 +22,18 @@ import json
 import re
 import sys
 import time
-from concurrent.futures import as_completed
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Iterator
 
 from tqdm import tqdm
 
 from physmind.executors import open_executor
-
+from physmind.local_server import local_server
+from planner.client import ToolCallError, ToolClient
 from world.io import read_json_file
-from world.scene3d.io import tracks_from_annotation, world3d_to_dict
-from world.scene3d.predict import answer_contact
+from world.scene3d.io import tracks_from_annotation, world3d_from_dict, world3d_to_dict
+from world.scene3d.predict import fit_world
 
 TABLE_COLUMNS: tuple[tuple[str, str], ...] = (
     ("friction_platform", "Fric. Plat."), ("friction_collision", "Fric. Coll."), ("bounce_platform", "Bounce Plat."),
@@ -87,61 +92,120 @@ class TrialRecord:
     error: str | None = None
     seconds: float = 0.0
     world: dict | None = None  # the fitted 3D world (physion.schema.json#/$defs/world3d)
+    tool_calls: tuple[dict, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         correct = None if self.label is None or self.prediction is None else self.label == self.prediction
         return {"index": self.index, "category": self.category, "label": self.label, "prediction": self.prediction,
                 "correct": correct, "contact_time": self.contact_time, "closest_approach": self.closest_approach,
                 "properties": self.properties, "evidence": self.evidence, "error": self.error,
-                "seconds": round(self.seconds, 4), "world": self.world}
+                "seconds": round(self.seconds, 4), "tool_calls": list(self.tool_calls), "world": self.world}
 
 
-def _evidence(answer) -> str:
-    fitted = ", ".join(f"{e.kind} of object {e.body_id}" + (f"/{e.other_id}" if e.other_id is not None else "")
-                       + f" = {e.value:.3f} +- {e.std:.3f}" for e in answer.report.estimates) or "no property measured"
-    outcome = (f"contact at t = {answer.time:.3f} s" if answer.contact
-               else f"no contact; closest approach {answer.closest:.3f} m" if answer.closest is not None else "no contact")
-    return f"{fitted}; {outcome}"
+@dataclass(frozen=True)
+class FittedTrial:
+    """A trial's fitted world document (or the error that stopped the fit) and the fit's wall time (s)."""
+
+    index: int
+    category: str
+    label: bool | None
+    question: str | None
+    world: dict | None
+    error: str | None
+    seconds: float
 
 
-def evaluate_trial(directory: Path, trial: dict[str, Any]) -> TrialRecord:
-    """Answer one trial from its annotation; errors become a record with ``error`` set (counted wrong)."""
+def world_cache_path(cache: Path, index: int) -> Path:
+    return cache / f"world_{index:05d}.json"
 
+
+def fit_trial(directory: Path, trial: dict[str, Any], cache: Path | None = None) -> FittedTrial:
+    """Parse the question, read the annotation and fit the anchored 3D world (reused from ``cache`` when there)."""
     index, category = int(trial["index"]), normalise_category(trial["category"])
     started = time.perf_counter()
     try:
         parse_contact_question(trial.get("question"))
-        document = read_json_file(directory / "annotations" / f"annotation_{index:05d}.json", "annotation")
-        tracks, timing, states = tracks_from_annotation(document)
-        answer = answer_contact(tracks, timing, states)
+        cached = world_cache_path(cache, index) if cache is not None else None
+        if cached is not None and cached.is_file():
+            document = read_json_file(cached, "cached world")
+            world3d_from_dict(document)  # a stale or foreign file fails here, not on the server
+        else:
+            annotation = read_json_file(directory / "annotations" / f"annotation_{index:05d}.json", "annotation")
+            document = world3d_to_dict(fit_world(*tracks_from_annotation(annotation)).world)
+            if cached is not None:
+                cached.parent.mkdir(parents=True, exist_ok=True)
+                cached.write_text(json.dumps(document))
     except (ValueError, KeyError, TypeError, FileNotFoundError) as error:
-        return TrialRecord(index, category, trial.get("label"), None, error=str(error),
-                           seconds=time.perf_counter() - started)
-    return TrialRecord(index, category, trial.get("label"), answer.contact, answer.time, answer.closest,
-                       answer.report.to_dict(), _evidence(answer), seconds=time.perf_counter() - started,
-                       world=world3d_to_dict(answer.world))
+        return FittedTrial(index, category, trial.get("label"), trial.get("question"), None, str(error), time.perf_counter() - started)
+    return FittedTrial(index, category, trial.get("label"), trial.get("question"), document, None, time.perf_counter() - started)
 
 
-def evaluate_trials(directory: Path, trials: list[dict[str, Any]], workers: int = 1, dask: str | None = None,
-                    progress: bool = True) -> list[TrialRecord]:
-    """``evaluate_trial`` over ``trials``, in order: in this process, a local process pool (workers > 1)
-    or on Dask (``dask``: 'local' or a scheduler address; physmind/executors.py)."""
-    bar = tqdm(total=len(trials), desc="physion eval", unit="trial", disable=not progress)
+def _fit_job(job: tuple[Path, dict[str, Any], Path | None]) -> FittedTrial:
+    return fit_trial(*job)
+
+
+def fit_trials(directory: Path, trials: list[dict[str, Any]], workers: int = 1, cache: Path | None = None,
+               progress: bool = False, dask: str | None = None) -> Iterator[FittedTrial]:
+    """Fitted worlds in trial order: in this process, ``workers`` > 1 local processes, or on Dask
+    (``dask``: 'local' or a scheduler address; physmind/executors.py)."""
+    jobs = [(directory, trial, cache) for trial in trials]
+    bar = tqdm(total=len(jobs), desc="physion fit", unit="trial", disable=not progress)
     if workers <= 1 and dask is None:
-        records = []
-        for trial in trials:
-            records.append(evaluate_trial(directory, trial))
+        for job in jobs:
+            yield _fit_job(job)
             bar.update()
     else:
         with open_executor(dask, max(1, workers)) as executor:
-            futures = {executor.submit(evaluate_trial, directory, trial): k for k, trial in enumerate(trials)}
-            by_position: dict[int, TrialRecord] = {}
-            for future in as_completed(futures):
-                by_position[futures[future]] = future.result()
+            for fitted in executor.map(_fit_job, jobs):
+                yield fitted
                 bar.update()
-        records = [by_position[k] for k in range(len(trials))]
     bar.close()
-    return records
+
+
+def ground_roles(summary: dict[str, Any], roles: tuple[str, str]) -> tuple[int, int]:
+    """Object ids of the question's (agent, patient) from get_world_summary: the bodies with those roles,
+    the patient zone standing in for a patient body. ValueError when the world has no such object."""
+    by_role = {o.get("role"): o["object_id"] for o in summary["objects"] if o.get("role")}
+    agent = by_role.get(roles[0])
+    patient = summary.get("patient_zone") if summary.get("patient_zone") is not None else by_role.get(roles[1])
+    if agent is None or patient is None:
+        raise ValueError(f"the world has no {'red agent' if agent is None else 'yellow patient'} to ask about")
+    return agent, patient
+
+
+def answer_trial(client: ToolClient, fitted: FittedTrial) -> TrialRecord:
+    """Register the fitted world and answer the trial's question through get_world_summary, continue_world
+    and check_contact; the world is deleted afterwards. Errors become a record with ``error`` set."""
+    started = time.perf_counter()
+    if fitted.error is not None:
+        return TrialRecord(fitted.index, fitted.category, fitted.label, None, error=fitted.error, seconds=fitted.seconds)
+    handle = None
+    try:
+        roles = parse_contact_question(fitted.question)
+        handle = client.create_world(fitted.world, name=f"physion trial {fitted.index}")
+        summary = handle.call("get_world_summary")
+        agent, patient = ground_roles(summary, roles)
+        continued = handle.call("continue_world", horizon_frames=summary["default_horizon_frames"])
+        result = handle.call("check_contact", object_a=agent, object_b=patient, rollout_id=continued["rollout_id"])
+    except (ToolCallError, ValueError) as error:
+        calls = tuple(c.to_dict() for c in handle.calls) if handle is not None else ()
+        return TrialRecord(fitted.index, fitted.category, fitted.label, None, error=str(error), tool_calls=calls,
+                           seconds=fitted.seconds + time.perf_counter() - started)
+    finally:
+        if handle is not None:
+            client.delete_world(handle.world_id)
+    return TrialRecord(fitted.index, fitted.category, fitted.label, bool(result["contact"]), result["contact_time"],
+                       None if result["contact"] else result["nearest_distance"],
+                       {"estimates": fitted.world["fitted_properties"]}, result["note"],
+                       seconds=fitted.seconds + time.perf_counter() - started, world=fitted.world,
+                       tool_calls=tuple(c.to_dict() for c in handle.calls))
+
+
+def evaluate_trials(directory: Path, trials: list[dict[str, Any]], server_url: str, workers: int = 1,
+                    cache: Path | None = None, progress: bool = False, dask: str | None = None) -> list[TrialRecord]:
+    """Every trial fitted (``workers`` processes) and answered through the tools of the server at ``server_url``."""
+    with ToolClient(server_url) as client:
+        return [answer_trial(client, fitted) for fitted in fit_trials(directory, trials, workers, cache, progress, dask)]
 
 
 def accuracy_table(records: list[TrialRecord]) -> dict[str, tuple[int, int]]:
@@ -169,24 +233,43 @@ def format_table(table: dict[str, tuple[int, int]], label: str) -> str:
     return "\n".join(lines)
 
 
-def run_physion_eval(args: argparse.Namespace) -> int:
-    """The handler ``physmind eval`` dispatches to when DATASET_DIR holds trials.json."""
+def check_physion_flags(args: argparse.Namespace) -> None:
+    """ValueError (one line, exit 2) for a flag the Physion path cannot honour."""
     if args.source != "annotation":
         raise ValueError("--source video: not available for Physion-layout data yet (3D lifting from video is future "
                          "work); use --source annotation")
+    if args.mode != "execute":
+        raise ValueError(f"--mode {args.mode}: not defined for Physion-layout data (the answer is the executed contact "
+                         "query of the fitted 3D world); use --mode execute")
+    if args.camera is not None:
+        raise ValueError("--camera: Physion-layout data carries its cameras in DIR/cameras/, and oracle tracks "
+                         "(--source annotation) do not use them")
+    if args.workers < 1:
+        raise ValueError(f"--workers: expected >= 1, got {args.workers}")
     if args.limit is not None and args.limit < 1:
         raise ValueError(f"--limit: expected >= 1, got {args.limit}")
+    if args.cache is not None and args.cache.exists() and not args.cache.is_dir():
+        raise ValueError(f"--cache: {args.cache} exists and is not a directory")
 
+
+def run_physion_eval(args: argparse.Namespace) -> int:
+    """The handler ``physmind eval`` dispatches to when DATASET_DIR holds trials.json."""
+    check_physion_flags(args)
     trials = load_trials(args.dataset)[: args.limit]
     if not trials:
         raise ValueError(f"{args.dataset}/trials.json holds no trials")
-    records = evaluate_trials(args.dataset, trials, args.workers, args.dask)
+    if args.server:
+        records = evaluate_trials(args.dataset, trials, args.server, args.workers, args.cache, True, args.dask)
+    else:
+        with local_server() as url:
+            records = evaluate_trials(args.dataset, trials, url, args.workers, args.cache, True, args.dask)
+    label = "oracle tracks (3D analytic, tools)"
     table = accuracy_table(records)
-    print(format_table(table, "oracle tracks (3D analytic)"))
+    print(format_table(table, label))
     for record in records:
         if record.error:
             print(f"trial {record.index}: failed: {record.error}", file=sys.stderr)
-    report = {"label": "oracle tracks (3D analytic)", "dataset": str(args.dataset), "source": args.source,
+    report = {"label": label, "dataset": str(args.dataset), "source": args.source, "server": args.server or "local",
               "accuracy": {k: (None if n == 0 else round(100.0 * c / n, 2)) for k, (c, n) in table.items()},
               "trials": [r.to_dict() for r in records],
               "seconds_per_trial": round(sum(r.seconds for r in records) / len(records), 4)}

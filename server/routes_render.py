@@ -28,7 +28,7 @@ from fastapi.responses import Response
 from starlette.concurrency import run_in_threadpool
 
 from server.openapi_docs import responses
-from tools.errors import limit_exceeded
+from tools.errors import limit_exceeded, not_available_in_3d
 from tools.session import BASE_ROLLOUT_ID
 
 VIEWER_DIR = Path(__file__).resolve().parent / "static" / "viewer"
@@ -108,6 +108,8 @@ def _state(request: Request) -> tuple[RenderLimits, RenderCache]:
 def _rollouts(request: Request, world_id: str, rollout_id: str, reference: str):
     """(session, rollout, reference rollout); 404 ToolError for unknown ids (checked even on a cache hit)."""
     session = request.app.state.registry.session(world_id)
+    if session.is_3d:  # the pictures draw tabletop rollouts
+        raise not_available_in_3d("the pictures (plot.png, video.mp4)", [])
     rollout = session.rollout(rollout_id, tool=None, pointer="")
     return session, rollout, session.rollout(reference, tool=None, pointer="/reference")
 

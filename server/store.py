@@ -162,21 +162,26 @@ class SqliteStore:
                 del self._cache[key]
 
     # -- worlds ---------------------------------------------------------------
-    def create_world(self, world_id: str, world: World, document: dict, base: Rollout, name: str | None = None) -> None:
-        """Store a world and its base rollout atomically (``name`` defaults to the document's id)."""
+    def create_world(self, world_id: str, world: Any, document: dict, base: Rollout | None, name: str | None = None) -> None:
+        """Store a world and its base rollout atomically (``name`` defaults to the document's id).
+
+        A 3D world (world.scene3d) comes with ``base=None`` and a ``name``: its rollouts are recomputed from their ids.
+        """
         now = time.time()
-        rollout_blob = _encode(rollout_to_dict(base))
+        rollout_blob = None if base is None else _encode(rollout_to_dict(base))
         with self._transaction() as conn:
             conn.execute(
                 "INSERT INTO worlds (world_id, name, created_at, body_count, document) VALUES (?, ?, ?, ?, ?)",
                 (world_id, name or world.id, now, len(world.bodies), json.dumps(document, separators=(",", ":"), allow_nan=False)),
             )
-            conn.execute(
-                "INSERT INTO rollouts (world_id, rollout_id, parent_id, created_at, horizon_frames, edits, document) VALUES (?, ?, ?, ?, ?, ?, ?)",
-                (world_id, base.id, None, now, base.horizon_frames, json.dumps(_edits_of(base)), rollout_blob),
-            )
-        self._remember((world_id, "\0world"), world)
-        self._remember((world_id, base.id), base)
+            if base is not None:
+                conn.execute(
+                    "INSERT INTO rollouts (world_id, rollout_id, parent_id, created_at, horizon_frames, edits, document) VALUES (?, ?, ?, ?, ?, ?, ?)",
+                    (world_id, base.id, None, now, base.horizon_frames, json.dumps(_edits_of(base)), rollout_blob),
+                )
+        if base is not None:
+            self._remember((world_id, "\0world"), world)
+            self._remember((world_id, base.id), base)
 
     def list_worlds(self) -> list[WorldRow]:
         rows = self._conn().execute(

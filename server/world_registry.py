@@ -6,6 +6,7 @@ failed create leaves no trace.
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 import uuid
 from typing import Any
@@ -22,11 +23,13 @@ from server.routes_render import picture_links
 from server.settings import Settings
 from server.store import SqliteStore, WorldGone
 from tools.common import boundaries, event_record
-from tools.errors import ToolError, echo, invalid_argument, json_pointer, limit_exceeded, not_found
-from tools.registry import call_tool, get_tool, inline_refs, validation_error_to_tool_error
+from tools.errors import ToolError, echo, invalid_argument, json_pointer, limit_exceeded, not_available_in_3d, not_found
+from tools.registry import call_tool, get_tool, inline_refs, tool_registry, validation_error_to_tool_error
+from tools.scene3d import World3DSession
 from tools.session import BASE_ROLLOUT_ID, MemoryRolloutStore, WorldSession, default_horizon_frames
 from world.io import world_from_dict
 from world.rollout import simulate
+from world.scene3d.io import PHYSION_SCHEMA, is_world3d_document, validate_physion, world3d_from_dict, world3d_to_dict
 from world.types import Rollout
 
 WORLD_SCHEMA_NAME = "world.schema.json"
@@ -39,7 +42,7 @@ class WorldRegistry:
     def __init__(self, store: SqliteStore, settings: Settings) -> None:
         self.store = store
         self.settings = settings
-        self._sessions: dict[str, WorldSession] = {}
+        self._sessions: dict[str, WorldSession | World3DSession] = {}
         self._lock = threading.Lock()
         self._world_validator = self._load_world_validator()
 
@@ -50,7 +53,7 @@ class WorldRegistry:
     def unknown_world(self, world_id: str, tool: str | None = None) -> ToolError:
         return not_found("world", world_id, self.store.world_ids(), tool=tool, pointer="")
 
-    def session(self, world_id: str, tool: str | None = None) -> WorldSession:
+    def session(self, world_id: str, tool: str | None = None) -> WorldSession | World3DSession:
         # Asked of SQLite every time: another process of this server (the one that answered a
         # DELETE) may have deleted the world while this one still caches it.
         if not self.store.has_world(world_id):
@@ -62,6 +65,13 @@ class WorldRegistry:
             session = self._sessions.get(world_id)
         if session is not None:
             return session
+        document = self.store.world_document(world_id)
+        if is_world3d_document(document):
+            row = self.store.world_row(world_id)
+            session = World3DSession(world_id, world3d_from_dict(document), self.settings.max_horizon_frames,
+                                     name=row.name if row else None)
+            with self._lock:
+                return self._sessions.setdefault(world_id, session)
         world = self.store.get_world(world_id)
         if world is None:
             raise self.unknown_world(world_id, tool)
@@ -95,6 +105,8 @@ class WorldRegistry:
         if isinstance(bodies, list) and len(bodies) > self.settings.max_bodies:
             raise limit_exceeded(None, "/world/bodies", f"{len(bodies)} bodies exceed this server's limit of "
                                  f"{self.settings.max_bodies}", self.settings.max_bodies)
+        if is_world3d_document(document):
+            return self._create_world3d(body, document, name)
         if self._world_validator is not None:
             error = best_match(self._world_validator.iter_errors(document))
             if error is not None:
@@ -138,6 +150,42 @@ class WorldRegistry:
             self._sessions[world_id] = session
         return {"world_id": world_id, "name": name or world.id, "rollout_ids": [BASE_ROLLOUT_ID], "summary": summary}
 
+    def _create_world3d(self, body: dict, document: dict, name: str | None) -> dict:
+        """A 3D world (physion.schema.json#/$defs/world3d): checked in full (its base continuation runs
+        and its summary validates) before the document is stored; its rollouts are recomputed from their ids."""
+        try:
+            validate_physion(document, "world3d")
+            world = world3d_from_dict(document)
+        except (ValueError, KeyError, TypeError) as error:
+            raise ToolError(code="invalid_world", tool=None, pointer="/world", status=422, message=str(error)[:500],
+                            expected="a valid 3D world document (schemas/physion.schema.json#/$defs/world3d)") from None
+        horizon = body.get("horizon_frames")
+        if horizon is not None:
+            if isinstance(horizon, bool) or not isinstance(horizon, int) or horizon < world.observed_frames:
+                raise invalid_argument(None, "/horizon_frames", f"horizon_frames must be an integer >= the observed frames "
+                                       f"({world.observed_frames}), got {echo(horizon)}", f"an integer >= {world.observed_frames}")
+            world = dataclasses.replace(world, horizon_frames=horizon)
+        scratch = World3DSession("w-check", world, self.settings.max_horizon_frames)
+        horizon = scratch.default_horizon_frames()
+        if horizon > self.settings.max_horizon_frames:
+            raise limit_exceeded(None, "/world/horizon_frames", f"the base continuation would need {horizon} frames, above "
+                                 f"this server's limit of {self.settings.max_horizon_frames}", self.settings.max_horizon_frames)
+        check_cost(request_cost(len(world.bodies), horizon), self.settings.max_cost, tool=None,
+                   pointer="/horizon_frames" if "horizon_frames" in body else "/world/bodies", what="the base rollout")
+        self.check_storage()
+        world_id = "w-" + uuid.uuid4().hex[:16]
+        session = World3DSession(world_id, world, self.settings.max_horizon_frames, name=name or "world3d")
+        try:
+            summary = call_tool("get_world_summary", session, {}, validate_results=True)
+        except (AssertionError, ValueError, FloatingPointError, OverflowError, ZeroDivisionError) as error:
+            raise ToolError(code="invalid_world", tool=None, pointer="/world", status=422,
+                            message=f"the world does not execute to finite, valid values: {str(error)[:300]}",
+                            expected="physically plausible masses, sizes, velocities and fps") from None
+        self.store.create_world(world_id, world, world3d_to_dict(world), None, name=name or "world3d")
+        with self._lock:
+            self._sessions[world_id] = session
+        return {"world_id": world_id, "name": name or "world3d", "rollout_ids": [BASE_ROLLOUT_ID], "summary": summary}
+
     def check_storage(self) -> None:
         """507 when the data directory's SQLite files exceed the storage quota."""
         used = self.store.size_bytes()
@@ -161,7 +209,8 @@ class WorldRegistry:
         get_tool(tool_name)  # 404 listing the tools before anything else
         args = parse_json(raw, tool_name, {})
         session = self.session(world_id, tool_name)
-        cost = tool_call_cost(tool_name, args, len(session.world.bodies), default_horizon_frames(session.world))
+        default = session.default_horizon_frames() if session.is_3d else default_horizon_frames(session.world)
+        cost = tool_call_cost(tool_name, args, len(session.world.bodies), default)
         if cost:
             check_cost(cost, self.settings.max_cost, tool=tool_name, pointer="/horizon_frames", what=f"this {tool_name} call")
             self.check_storage()
@@ -174,6 +223,8 @@ class WorldRegistry:
 
     def rollout_summary(self, world_id: str, rollout_id: str, detail: str) -> dict:
         session = self.session(world_id)
+        if session.is_3d:
+            raise not_available_in_3d("GET /v1/worlds/{id}/rollouts/{id} (use list_events or continue_world)", _tools_3d())
         rollout: Rollout = session.rollout(rollout_id, tool=None, pointer="")
         row = self.store.rollout_row(world_id, rollout_id)
         payload: dict[str, Any] = {
@@ -192,6 +243,10 @@ class WorldRegistry:
         return payload
 
 
+def _tools_3d() -> list[str]:
+    return [tool.name for tool in tool_registry().values() if tool.spec.run3d is not None]
+
+
 def _require_finite_rollout(rollout: Rollout) -> None:
     """ValueError if any state of ``rollout`` is NaN or infinite."""
     for name in ("times", "positions", "velocities", "yaw"):
@@ -203,6 +258,7 @@ def _require_finite_rollout(rollout: Rollout) -> None:
 def world_body_schema() -> dict:
     """The request body of POST /v1/worlds, for the OpenAPI document.
 
+    A 3D world (Physion++-style, "format": "physmind.world3d/1") is accepted too.
     Only the source this version accepts is published; 'observations' and
     'video' are reserved names that answer 422 unsupported_source.
     """
@@ -210,7 +266,9 @@ def world_body_schema() -> dict:
         "type": "object",
         "description": "a world document under 'world' (exactly one source; 'observations' and 'video' are reserved)",
         "properties": {
-            "world": inline_refs(read_schema(WORLD_SCHEMA_NAME), read_schema, WORLD_SCHEMA_NAME),
+            "world": {"anyOf": [inline_refs(read_schema(WORLD_SCHEMA_NAME), read_schema, WORLD_SCHEMA_NAME),
+                                inline_refs({"$ref": f"{PHYSION_SCHEMA}#/$defs/world3d"}, read_schema)],
+                      "description": "a tabletop world (world.schema.json) or a 3D world (physion.schema.json#/$defs/world3d)"},
             "name": {"type": "string", "minLength": 1, "maxLength": 200},
             "horizon_frames": {"type": "integer", "minimum": 1,
                                "description": "frames of the base rollout (default: observed frames + 20 %)"},

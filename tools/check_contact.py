@@ -16,6 +16,7 @@ from world.types import Rollout
 from tools.common import DEFAULT_CONTACT_TOLERANCE, DEFAULT_FRAME_TOLERANCE, PairEvidence, pair_evidence, pair_query
 from tools.registry import ToolSpec
 from tools.session import BASE_ROLLOUT_ID, WorldSession
+from tools.scene3d import check_contact3d
 
 NAME = "check_contact"
 STATUS = {"collision_event": "collision", "footprint_scan": "contact", "none": "no_contact"}
@@ -95,7 +96,10 @@ TOOL = ToolSpec(
         "optionally within an inclusive frame range. Searches collision events first, then a conservative footprint scan; "
         "distance alone does not establish contact. Returns status (collision | contact | no_contact), matched frames, "
         "nearest distance, whether the first match is beyond the observed video, and for edited rollouts a comparison "
-        "with the base rollout under a 5-frame tolerance."
+        "with the base rollout under a 5-frame tolerance. On a 3D (Physion) world object_b may be a zone and the "
+        "result adds the exact contact_time, the closest approach (nearest_distance, nearest_time) and the fitted "
+        "latent properties the answer rests on."
     ),
     run=run,
+    run3d=check_contact3d,
 )

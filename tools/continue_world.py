@@ -16,13 +16,10 @@ from world.types import Rollout
 
 from tools.common import boundaries, event_record
 from tools.registry import ToolSpec
-from tools.session import WorldSession
+from tools.session import WorldSession, continuation_id
+from tools.scene3d import continue_world3d
 
 NAME = "continue_world"
-
-
-def continuation_id(horizon_frames: int) -> str:
-    return f"continue-{int(horizon_frames)}"
 
 
 def _continuation(session: WorldSession, horizon_frames: int) -> Rollout:
@@ -62,4 +59,5 @@ TOOL = ToolSpec(
         "list_events, inspect_*), collisions and in/out events with frames, and the boundaries."
     ),
     run=run,
+    run3d=continue_world3d,
 )

@@ -94,3 +94,11 @@ def limit_exceeded(tool: str | None, pointer: str, message: str, limit: Any) -> 
         code="limit_exceeded", message=message, tool=tool, pointer=pointer,
         expected=f"<= {limit}", status=422, extra={"limit": limit},
     )
+
+
+def not_available_in_3d(what: str, available: Sequence[str], tool: str | None = None) -> ToolError:
+    """``what`` (a tool, or an endpoint) has no meaning on a 3D world (no edits, no camera there)."""
+    listing = f"; the tools that are: {list(available)}" if available else ""
+    return ToolError(code="not_available_in_3d", message=f"{what} is not available on a 3D world{listing}",
+                     tool=tool, pointer="", expected=f"one of {list(available)}" if available else "a 2D (tabletop) world",
+                     status=422)

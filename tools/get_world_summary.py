@@ -9,6 +9,7 @@ from world.timebase import frame_of
 from tools.common import fit_error, r, vec
 from tools.registry import ToolSpec
 from tools.session import WorldSession, default_horizon_frames
+from tools.scene3d import get_world_summary3d
 
 NAME = "get_world_summary"
 
@@ -70,4 +71,5 @@ TOOL = ToolSpec(
         "null for a world not fitted to a video). Call it first to ground object descriptions to ids."
     ),
     run=run,
+    run3d=get_world_summary3d,
 )

@@ -7,6 +7,7 @@ from typing import Any, Mapping
 from tools.common import boundaries, event_record, frame_range
 from tools.registry import ToolSpec
 from tools.session import BASE_ROLLOUT_ID, WorldSession
+from tools.scene3d import list_events3d
 
 NAME = "list_events"
 
@@ -42,4 +43,5 @@ TOOL = ToolSpec(
         "observed video. Optional filters: kinds, object_id, inclusive frame range."
     ),
     run=run,
+    run3d=list_events3d,
 )

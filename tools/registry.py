@@ -22,7 +22,7 @@ from referencing import Registry, Resource
 
 import tools as package
 from schemas import read_schema, schema_names
-from tools.errors import ToolError, invalid_argument, json_pointer, not_found
+from tools.errors import ToolError, invalid_argument, json_pointer, not_available_in_3d, not_found
 
 TOOL_SCHEMA_FOLDER = "tools"
 
@@ -33,6 +33,8 @@ ToolFunction = Callable[[Any, Mapping[str, Any]], dict]
 class ToolSpec:
     """A tool: ``run(session, args) -> result``; ``order`` sorts the public listing.
 
+    ``run3d``: the tool on a 3D world (a session with ``is_3d``); without it
+    the tool answers 422 ``not_available_in_3d`` there.
     ``read_only``: the tool only reads the world and its rollouts (repeating a
     call changes nothing). A tool that is not read-only adds a rollout; no
     tool deletes anything. MCP's tool annotations are derived from it.
@@ -43,6 +45,7 @@ class ToolSpec:
     run: ToolFunction
     order: int = 100
     read_only: bool = True
+    run3d: ToolFunction | None = None  # the tool on a 3D world (tools.scene3d); None: not available there
 
 
 @dataclass(frozen=True)
@@ -231,9 +234,14 @@ def call_tool(name: str, session: Any, args: Any, *, validate_results: bool = Tr
     """
     tool = get_tool(name)
     args = without_null_optionals(args, tool.args_schema)
+    run = tool.spec.run
+    if getattr(session, "is_3d", False):
+        if tool.spec.run3d is None:
+            raise not_available_in_3d(tool.name, [t.name for t in tool_registry().values() if t.spec.run3d is not None], tool.name)
+        run = tool.spec.run3d
     validate_args(tool, args)
     try:
-        result = tool.spec.run(session, args)
+        result = run(session, args)
     except ToolError as error:
         if error.tool is None:
             error.tool = tool.name

@@ -12,7 +12,7 @@ from __future__ import annotations
 import threading
 import uuid
 from dataclasses import dataclass, field
-from typing import Protocol, Sequence
+from typing import ClassVar, Protocol, Sequence
 
 from tools.errors import limit_exceeded, not_found
 from world.rollout import default_horizon, simulate
@@ -20,11 +20,17 @@ from world.types import Edit, Rollout, World
 
 BASE_ROLLOUT_ID = "base"
 DEFAULT_MAX_HORIZON_FRAMES = 5000
+CONTINUATION_PREFIX = "continue-"
 
 
 def default_horizon_frames(world: World) -> int:
     """The engine's default horizon: ceil(observed_frames * 1.2), at least one frame."""
     return int(default_horizon(world))
+
+
+def continuation_id(horizon_frames: int) -> str:
+    """The fixed id of the factual continuation to ``horizon_frames`` (continue_world)."""
+    return f"{CONTINUATION_PREFIX}{int(horizon_frames)}"
 
 
 def new_rollout_id() -> str:
@@ -83,6 +89,7 @@ class WorldSession:
     world: World
     store: RolloutStore
     max_horizon_frames: int = DEFAULT_MAX_HORIZON_FRAMES
+    is_3d: ClassVar[bool] = False  # tools.scene3d.World3DSession serves 3D worlds
     _base_lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     # -- lookup ---------------------------------------------------------------

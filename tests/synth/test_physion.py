@@ -11,6 +11,7 @@ import pytest
 from synth.physion.categories import sample_trial
 from synth.physion.mujoco_run import run_trial
 from synth.physion.generate import generate_trial, write_trials
+from physmind.physion_eval import world_cache_path
 from synth.physion.spec import CATEGORIES, FPS, world_from_spec
 from synth.render import read_mp4
 from world.scene3d.identify import identify_properties
@@ -92,23 +93,71 @@ def test_label_of_a_trial_with_a_known_property(category):
     assert engine_answer(swapped, run_trial(swapped)) == sampled.swapped_label
 
 
-def test_physmind_eval_on_a_physion_layout(tmp_path: Path, capsys):
+@pytest.fixture(scope="module")
+def eval_layout(tmp_path_factory) -> Path:
+    """One trial per category, without video (the eval reads the oracle tracks)."""
+    out = tmp_path_factory.mktemp("physion_eval")
+    write_trials(out, [generate_trial(out, SEED + 1, category, 0, 1, video=False)[0] for category in CATEGORIES])
+    return out
+
+
+@pytest.mark.slow
+def test_physmind_eval_answers_through_the_tools(eval_layout: Path, tmp_path: Path, capsys):
     from physmind.cli import main
 
-    entries = [generate_trial(tmp_path, SEED + 1, category, 0, 1, video=False)[0] for category in CATEGORIES]
-    write_trials(tmp_path, entries)
-    report_path = tmp_path / "report.json"
-    assert main(["eval", str(tmp_path), "-o", str(report_path)]) == 0
+    entries = json.loads((eval_layout / "trials.json").read_text())
+    report_path, cache = tmp_path / "report.json", tmp_path / "worlds"
+    assert main(["eval", str(eval_layout), "-o", str(report_path), "--workers", "2", "--cache", str(cache)]) == 0
     printed = capsys.readouterr().out
     assert "Fric. Plat." in printed and "Bounce Wall" in printed and "Overall" in printed
     report = json.loads(report_path.read_text())
     assert [r["index"] for r in report["trials"]] == [e["index"] for e in entries]
     for record, entry in zip(report["trials"], entries):
         assert record["category"] == entry["category"] and record["label"] == entry["label"]
-        assert isinstance(record["prediction"], bool)
+        assert [c["tool"] for c in record["tool_calls"]] == ["get_world_summary", "continue_world", "check_contact"]
         validate_physion(record["world"], "world3d")
+        # the tools give the answer the engine's own contact query gives on the same fitted world
+        annotation = json.loads((eval_layout / "annotations" / f"annotation_{entry['index']:05d}.json").read_text())
+        direct = answer_contact(*tracks_from_annotation(annotation))
+        assert record["prediction"] == direct.contact
+        if direct.contact:
+            assert record["contact_time"] == pytest.approx(direct.time, abs=1e-6)
+            assert f"contact at t = {direct.time:.3f} s" in record["evidence"]
+        else:
+            assert "closest approach" in record["evidence"]
+        property_kind = {"mass_collision": "mass_ratio", "friction_collision": "friction", "friction_platform": "friction",
+                         "bounce_platform": "restitution", "bounce_wall": "restitution"}[entry["category"]]
+        assert f"{property_kind} of object" in record["evidence"]
+        assert world_cache_path(cache, entry["index"]).is_file()
     assert report["accuracy"]["overall"] == pytest.approx(
         100.0 * sum(r["prediction"] == r["label"] for r in report["trials"]) / len(entries), abs=0.01)
+    # a second run reuses the cached worlds and answers the same
+    assert main(["eval", str(eval_layout), "-o", str(tmp_path / "again.json"), "--cache", str(cache)]) == 0
+    again = json.loads((tmp_path / "again.json").read_text())
+    assert [r["prediction"] for r in again["trials"]] == [r["prediction"] for r in report["trials"]]
+
+
+@pytest.mark.slow
+def test_physmind_eval_uses_a_given_server(eval_layout: Path, tmp_path: Path):
+    from physmind.cli import main
+    from physmind.local_server import local_server
+
+    with local_server() as url:
+        assert main(["eval", str(eval_layout), "-o", str(tmp_path / "r.json"), "--limit", "1", "--server", url]) == 0
+    report = json.loads((tmp_path / "r.json").read_text())
+    assert report["server"] == url and report["trials"][0]["error"] is None
+
+
+@pytest.mark.parametrize("flags, message", [(["--mode", "trajectory_only"], "--mode trajectory_only"),
+                                            (["--camera", "camera.json"], "--camera"),
+                                            (["--workers", "0"], "--workers"),
+                                            (["--source", "video"], "--source video")])
+def test_physmind_eval_rejects_flags_it_cannot_honour(eval_layout: Path, tmp_path: Path, capsys, flags, message):
+    from physmind.cli import main
+
+    assert main(["eval", str(eval_layout), "-o", str(tmp_path / "r.json"), *flags]) == 2
+    error = capsys.readouterr().err.strip()
+    assert message in error and len(error.splitlines()) == 1 and "Traceback" not in error
 
 
 def test_contact_question_is_parsed():

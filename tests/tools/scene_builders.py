@@ -4,6 +4,10 @@
 (0 -> 1 -> 2 -> 3 collisions), a sphere that enters later and hits the cube
 (3 -> 4), and a sphere that slides out of view without touching anything. A camera looking at the
 origin gives in/out-of-view events.
+
+``sliding_world3d``: a 3D world (world.scene3d) where a red cube slides on the
+floor with Coulomb friction towards a resting yellow cube and past a zone, with
+a fitted friction recorded, anchored at t = 1 s (frame 25 of a 25 fps video).
 """
 
 from __future__ import annotations
@@ -11,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 
 from world.camera import look_at_camera
+from world.scene3d.types import Anchor3D, Body3D, FittedProperty, Phase3D, State3D, StaticBox, World3D
 from world.types import Body, BodyState, Rollout, Shape, World
 
 
@@ -54,3 +59,23 @@ def hand_rollout(world: World, rollout_id: str, positions, events=(), edits=(), 
         velocities=np.zeros_like(positions), yaw=np.zeros((frames, count)), active=active, visible=active.copy(),
         events=tuple(events),
     )
+
+
+SLIDE_SPEED = 2.0  # m/s of the red cube at the anchor
+SLIDE_FRICTION = 0.3
+CUBE_HALF = 0.1  # m
+ANCHOR_TIME = 1.0  # s
+
+
+def sliding_world3d(patient_x: float, zone_x: float | None = None) -> World3D:
+    """Red cube 0 at x = 0 sliding at SLIDE_SPEED along +x (friction SLIDE_FRICTION) at ANCHOR_TIME; yellow cube 1
+    resting at ``patient_x``; with ``zone_x`` a zone patch 101 (0.1 m half length in x) centred there is the patient."""
+    floor = StaticBox(100, "floor", (0.0, 0.0, -0.5), (10.0, 10.0, 0.5))
+    statics = (floor,) if zone_x is None else (floor, StaticBox(101, "zone", (zone_x, 0.0, 0.001), (0.1, 0.3, 0.001)))
+    bodies = (Body3D(0, "cube", CUBE_HALF, mass=1.0, friction=SLIDE_FRICTION, role="agent", color="red"),
+              Body3D(1, "cube", CUBE_HALF, mass=1.0, friction=0.5, role=None if zone_x is not None else "patient", color="yellow"))
+    at_anchor = ((0, State3D((0.0, 0.0, CUBE_HALF), (SLIDE_SPEED, 0.0, 0.0))), (1, State3D((patient_x, 0.0, CUBE_HALF))))
+    start = ((0, State3D((-1.0, 0.0, CUBE_HALF), (SLIDE_SPEED, 0.0, 0.0))), (1, State3D((patient_x, 0.0, CUBE_HALF))))
+    return World3D(bodies, (Phase3D(0.0, statics, start),), patient_zone=None if zone_x is None else 101, fps=25.0,
+                   anchor=Anchor3D(ANCHOR_TIME, at_anchor), horizon_frames=100,
+                   fitted=(FittedProperty("friction", 0, SLIDE_FRICTION, 0.002, 12),))

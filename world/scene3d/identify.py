@@ -13,7 +13,8 @@
   gives m_j / m_i = -dv_i.n / dv_j.n, and e = -(v_j' - v_i').n / (v_j - v_i).n.
 
 Uncertainties are one standard deviation from the fits' residuals (delta
-method); several measurements of one property combine by inverse variance.
+method); several measurements of one property combine by inverse variance
+plus the spread between them (a random-effects mean, ``_combine``).
 Array shapes: times (T,), positions (T, 3); units m, s, kg.
 """
 
@@ -25,7 +26,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from world.scene3d.motion import contact_normal, face_coordinates, gap_between, quadratic_roots
-from world.scene3d.types import Body3D, Face, Phase3D, State3D, Tracks3D, World3D
+from world.scene3d.types import Anchor3D, Body3D, Face, FittedProperty, Phase3D, State3D, Tracks3D, World3D
 
 TOUCH_DISTANCE = 0.012  # m: a centre this close to its contact distance from a face is touching it
 MOVING_SPEED = 0.05  # m/s: slower counts as at rest for friction fits
@@ -78,8 +79,22 @@ def poly_fit(times: np.ndarray, values: np.ndarray, degree: int) -> tuple[np.nda
 
 
 def _combine(values: list[float], stds: list[float]) -> tuple[float, float]:
-    weights = 1.0 / np.maximum(np.asarray(stds), 1e-6) ** 2
-    return float(np.sum(weights * values) / np.sum(weights)), float(1.0 / math.sqrt(np.sum(weights)))
+    """Several measurements of one property: a random-effects mean (DerSimonian-Laird) and its std.
+
+    When the measurements disagree by more than their fit noise (MuJoCo's soft contact realises a
+    different restitution at each impact: wall against floor, fast against slow), plain inverse-variance
+    weights let the one best-fitted impact decide and understate the uncertainty. The between-measurement
+    variance tau^2 (zero when they agree within their noise) is added to each measurement's variance.
+    """
+    x = np.asarray(values, float)
+    variances = np.maximum(np.asarray(stds, float), 1e-6) ** 2
+    weights = 1.0 / variances
+    fixed = float(np.sum(weights * x) / np.sum(weights))
+    spread = float(np.sum(weights * (x - fixed) ** 2)) - (len(x) - 1)
+    scale = float(np.sum(weights) - np.sum(weights**2) / np.sum(weights))
+    tau2 = max(spread, 0.0) / scale if scale > 0 else 0.0
+    weights = 1.0 / (variances + tau2)
+    return float(np.sum(weights * x) / np.sum(weights)), float(1.0 / math.sqrt(np.sum(weights)))
 
 
 def _runs(mask: np.ndarray) -> list[tuple[int, int]]:
@@ -347,8 +362,10 @@ def identify_properties(tracks: Tracks3D, phases: tuple[int, ...] | None = None)
 
 
 def world_from_tracks(tracks: Tracks3D, report: FitReport3D, phase_starts: tuple[float, ...],
-                      states: tuple[dict[int, State3D], ...]) -> World3D:
-    """A World3D whose bodies carry the fitted properties (defaults where nothing was measured).
+                      states: tuple[dict[int, State3D], ...], *, fps: float = 25.0, anchor: Anchor3D | None = None,
+                      horizon_frames: int | None = None) -> World3D:
+    """A World3D whose bodies carry the fitted properties (defaults where nothing was measured),
+    the report as ``World3D.fitted``, and the anchor the factual continuation starts from.
 
     Friction: the sliding fit, else the impact friction, else DEFAULT_FRICTION (clipped to >= 0).
     Restitution: clipped to [0, 1]. Masses: 1 kg for bodies without a ratio, m_j = m_i r_ij otherwise.
@@ -369,4 +386,6 @@ def world_from_tracks(tracks: Tracks3D, report: FitReport3D, phase_starts: tuple
     pairs = tuple(((e.body_id, e.other_id), min(max(e.value, 0.0), 1.0)) for e in report.estimates if e.kind == "pair_restitution")
     phases = tuple(Phase3D(start, tracks.phases[k].static_objects, tuple(sorted(states[k].items())))
                    for k, start in enumerate(phase_starts))
-    return World3D(tuple(bodies), phases, tracks.gravity, pairs, tracks.patient_zone)
+    fitted = tuple(FittedProperty(e.kind, e.body_id, e.value, e.std, e.measurements, e.other_id) for e in report.estimates)
+    return World3D(tuple(bodies), phases, tracks.gravity, pairs, tracks.patient_zone, fps=fps, anchor=anchor,
+                   horizon_frames=horizon_frames, fitted=fitted)

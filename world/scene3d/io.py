@@ -16,7 +16,9 @@ import numpy as np
 from jsonschema.exceptions import best_match
 
 from schemas import read_schema
-from world.scene3d.types import Body3D, Phase3D, PhaseTracks, State3D, StaticBox, Tracks3D, World3D
+from world.scene3d.types import (
+    Anchor3D, Body3D, FittedProperty, Phase3D, PhaseTracks, State3D, StaticBox, Tracks3D, World3D,
+)
 
 DEFAULT_FPS = 25.0
 
@@ -139,6 +141,12 @@ def world3d_to_dict(world: World3D) -> dict[str, Any]:
                    for p in world.phases],
         "pair_restitution": [{"bodies": list(pair), "restitution": e} for pair, e in world.pair_restitution],
         "patient_zone": world.patient_zone, "provenance": dict(world.provenance),
+        "fps": world.fps, "horizon_frames": world.horizon_frames,
+        "anchor": None if world.anchor is None else {
+            "time": world.anchor.time,
+            "states": [{"object_id": i, "position": list(s.position), "velocity": list(s.velocity)} for i, s in world.anchor.states]},
+        "fitted_properties": [{"kind": f.kind, "object_id": f.object_id, "other_object_id": f.other_object_id, "value": f.value,
+                               "std": f.std, "measurements": f.measurements} for f in world.fitted],
     }
 
 
@@ -150,4 +158,16 @@ def world3d_from_dict(document: Mapping[str, Any]) -> World3D:
                            tuple((s["object_id"], State3D(s["position"], s["velocity"])) for s in p["states"]))
                    for p in document["phases"])
     pairs = tuple(((int(e["bodies"][0]), int(e["bodies"][1])), float(e["restitution"])) for e in document["pair_restitution"])
-    return World3D(bodies, phases, document["gravity"], pairs, document["patient_zone"], dict(document["provenance"]))
+    anchor = document.get("anchor")
+    if anchor is not None:
+        anchor = Anchor3D(float(anchor["time"]), tuple((s["object_id"], State3D(s["position"], s["velocity"])) for s in anchor["states"]))
+    fitted = tuple(FittedProperty(f["kind"], f["object_id"], f["value"], f["std"], f.get("measurements", 1), f.get("other_object_id"))
+                   for f in document.get("fitted_properties", ()))
+    return World3D(bodies, phases, document["gravity"], pairs, document["patient_zone"], dict(document["provenance"]),
+                   fps=float(document.get("fps", DEFAULT_FPS)), anchor=anchor, horizon_frames=document.get("horizon_frames"),
+                   fitted=fitted)
+
+
+def is_world3d_document(document: object) -> bool:
+    """True for a document that declares the 3D world format (validated separately)."""
+    return isinstance(document, dict) and document.get("format") == WORLD3D_FORMAT

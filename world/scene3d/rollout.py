@@ -21,6 +21,10 @@ from world.scene3d.motion import (
 from world.scene3d.types import Body3D, Face, Phase3D, State3D, StaticBox, World3D
 
 MAX_EVENTS = 4000  # guard against endless chatter
+# Resting contact between two bodies (one lying on the other) is not modelled: impulses then repeat
+# without time advancing. This many collisions of one pair within RESTING_WINDOW end the rollout.
+RESTING_COLLISIONS = 3
+RESTING_WINDOW = 1e-4  # s
 OFF_FALL_LINE_STEP = 0.02  # s: re-evaluate friction direction this often when sliding across a slope
 
 
@@ -50,9 +54,13 @@ class Event3D:
 
 @dataclass(frozen=True)
 class Rollout3D:
+    """Segments and events up to ``end_time`` (s): the horizon, the queried contact, or where the
+    engine stopped (``notes`` says why, e.g. two bodies came to rest on each other)."""
+
     segments: tuple[Segment, ...]
     events: tuple[Event3D, ...]
     end_time: float
+    notes: tuple[str, ...] = ()
 
     def state(self, body_id: int, time: float) -> State3D:
         """Position and velocity of a body at ``time`` (within the rollout)."""
@@ -99,6 +107,24 @@ def _support_face(body: Body3D, p: np.ndarray, v: np.ndarray, faces: list[Face])
     return best
 
 
+def _resolve_starting_contacts(body: Body3D, p: np.ndarray, v: np.ndarray, faces: list[Face]) -> np.ndarray:
+    """The velocity (3,) of a body that starts at contact distance of a face while moving into it.
+
+    No root of the contact distance lies ahead then (the body would pass through the face), so the
+    normal part is reflected at once, scaled by the body's restitution and without a friction
+    impulse: a starting state (e.g. a tracked frame) carries contact jitter of a few tenths of a m/s
+    on a sliding body, which must not brake it, while a real impact keeps its rebound.
+    """
+    for face in faces:
+        normal = np.asarray(face.normal)
+        rel = p - np.asarray(face.center)
+        inside = abs(rel @ np.asarray(face.axis_u)) <= face.half_u and abs(rel @ np.asarray(face.axis_v)) <= face.half_v
+        v_n = float(v @ normal)
+        if inside and abs(float(rel @ normal) - body.half_size) <= SURFACE_TOLERANCE and v_n < 0:
+            v = v - (1.0 + body.restitution) * v_n * normal
+    return v
+
+
 def _acceleration(m: _Moving, gravity: float) -> np.ndarray:
     if m.dwell_face is not None:  # held at the surface: only the in-plane part of gravity acts
         n = np.asarray(m.dwell_face.normal)
@@ -139,12 +165,15 @@ def simulate3d(world: World3D, phase: Phase3D, horizon: float, *, start_time: fl
     for body_id, state in initial.items():
         body = world.body(body_id)
         p, v = np.asarray(state.position, float), np.asarray(state.velocity, float)
+        v = _resolve_starting_contacts(body, p, v, faces)
         face = _support_face(body, p, v, faces)
         if face is not None:
             v = v - float(v @ np.asarray(face.normal)) * np.asarray(face.normal)
         moving[body_id] = _Moving(body, p, v, face)
     segments: list[Segment] = []
     events: list[Event3D] = []
+    notes: list[str] = []
+    recent_collisions: dict[tuple[int, int], list[float]] = {}
     ids = sorted(moving)
     for _ in range(MAX_EVENTS):
         if t >= horizon - 1e-12:
@@ -252,7 +281,15 @@ def simulate3d(world: World3D, phase: Phase3D, horizon: float, *, start_time: fl
             if query is not None and not query_static and {i, j} == set(query):
                 events.append(Event3D(t, "contact", (query[0], query[1])))
                 break
-    return Rollout3D(tuple(segments), tuple(events), t)
+            recent = [c for c in recent_collisions.get((i, j), []) if t - c <= RESTING_WINDOW] + [t]
+            recent_collisions[(i, j)] = recent
+            if len(recent) >= RESTING_COLLISIONS:
+                notes.append(f"bodies {i} and {j} come to rest on each other at t = {t:.3f} s; resting contact "
+                             "between bodies is not modelled, so the continuation ends there")
+                break
+    else:
+        notes.append(f"the event cap ({MAX_EVENTS}) was reached at t = {t:.3f} s; the continuation ends there")
+    return Rollout3D(tuple(segments), tuple(events), t, tuple(notes))
 
 
 def _closing(a: _Moving, b: _Moving) -> bool:

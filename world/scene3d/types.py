@@ -12,6 +12,7 @@ from typing import Mapping
 
 import numpy as np
 
+from world.timebase import frame_of
 from world.types import STANDARD_GRAVITY
 
 STATIC_ROLES: tuple[str, ...] = ("floor", "platform", "ramp", "wall", "pillar", "zone")
@@ -176,6 +177,53 @@ class Phase3D:
 
 
 @dataclass(frozen=True)
+class Anchor3D:
+    """Where the factual continuation starts: ``time`` (s, the last observed frame) and every present
+    body's fitted state there, as (body_id, State3D) pairs."""
+
+    time: float
+    states: tuple[tuple[int, State3D], ...]
+
+    def __post_init__(self) -> None:
+        if not (isinstance(self.time, (int, float)) and math.isfinite(self.time) and self.time >= 0):
+            raise ValueError(f"anchor.time: expected a finite number >= 0, got {self.time!r}")
+        ids = [body_id for body_id, _ in self.states]
+        if len(set(ids)) != len(ids):
+            raise ValueError(f"anchor.states: duplicate body ids {ids}")
+
+
+FITTED_KINDS: tuple[str, ...] = ("friction", "impact_friction", "restitution", "impact_duration", "mass_ratio",
+                                 "pair_restitution")
+
+
+@dataclass(frozen=True)
+class FittedProperty:
+    """One identified latent property the world rests on: ``kind`` (FITTED_KINDS) of ``object_id``
+    (mass_ratio, pair_restitution: of ``other_object_id`` relative to ``object_id``), its value,
+    one standard deviation and the number of measurements combined."""
+
+    kind: str
+    object_id: int
+    value: float
+    std: float
+    measurements: int = 1
+    other_object_id: int | None = None
+
+    def __post_init__(self) -> None:
+        if self.kind not in FITTED_KINDS:
+            raise ValueError(f"fitted property kind: expected one of {FITTED_KINDS}, got {self.kind!r}")
+        for name in ("value", "std"):
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and math.isfinite(value)):
+                raise ValueError(f"fitted property {self.kind}.{name}: expected a finite number, got {value!r}")
+
+    def describe(self) -> str:
+        """e.g. 'restitution of object 0 = 0.512 +- 0.004'."""
+        pair = f"/{self.other_object_id}" if self.other_object_id is not None else ""
+        return f"{self.kind} of object {self.object_id}{pair} = {self.value:.3f} +- {self.std:.3f}"
+
+
+@dataclass(frozen=True)
 class World3D:
     """Bodies with their latent properties, and phases separated by curtains (at least one).
 
@@ -192,6 +240,10 @@ class World3D:
     pair_restitution: tuple[tuple[tuple[int, int], float], ...] = ()
     patient_zone: int | None = None
     provenance: Mapping[str, object] = field(default_factory=dict)
+    fps: float = 25.0
+    anchor: Anchor3D | None = None
+    horizon_frames: int | None = None
+    fitted: tuple[FittedProperty, ...] = ()
 
     def __post_init__(self) -> None:
         ids = [body.id for body in self.bodies]
@@ -215,6 +267,35 @@ class World3D:
             zones = [box.id for box in self.phases[-1].static_objects if box.role == "zone"]
             if self.patient_zone not in zones:
                 raise ValueError(f"world.patient_zone: {self.patient_zone!r} is not a zone of the last phase {zones}")
+        if not (isinstance(self.fps, (int, float)) and math.isfinite(self.fps) and self.fps > 0):
+            raise ValueError(f"world.fps: expected a number > 0, got {self.fps!r}")
+        if self.anchor is not None:
+            unknown = [body_id for body_id, _ in self.anchor.states if body_id not in ids]
+            if unknown:
+                raise ValueError(f"world.anchor: states of unknown bodies {unknown}")
+            if self.anchor.time < self.phases[-1].start_time:
+                raise ValueError(f"world.anchor.time: {self.anchor.time} is before the last phase starts ({self.phases[-1].start_time})")
+        if self.horizon_frames is not None and (not isinstance(self.horizon_frames, int) or self.horizon_frames < 1):
+            raise ValueError(f"world.horizon_frames: expected an integer >= 1 or None, got {self.horizon_frames!r}")
+
+    @property
+    def start_time(self) -> float:
+        """Where the factual continuation starts (s): the anchor, else the last phase's start."""
+        return self.anchor.time if self.anchor is not None else self.phases[-1].start_time
+
+    @property
+    def start_states(self) -> dict[int, State3D]:
+        """{body_id: State3D} the factual continuation starts from."""
+        return dict(self.anchor.states if self.anchor is not None else self.phases[-1].states)
+
+    @property
+    def observed_frames(self) -> int:
+        """Frames of the video the world was fitted on: up to and including the start of the continuation."""
+        return frame_of(self.start_time, self.fps) + 1
+
+    def static_object(self, static_id: int) -> StaticBox | None:
+        """A static box of the last phase (where the continuation runs), None if there is none with that id."""
+        return next((box for box in self.phases[-1].static_objects if box.id == static_id), None)
 
     def body(self, body_id: int) -> Body3D:
         for body in self.bodies:

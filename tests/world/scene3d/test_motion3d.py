@@ -101,3 +101,17 @@ def test_world_types_validate_themselves():
 def test_position_law_is_ballistic():
     p = position_at(np.zeros(3), np.array([1.0, 0, 2.0]), np.array([0, 0, -G]), np.array([0.5]))
     assert p[0] == pytest.approx([0.5, 0.0, 1.0 - 0.5 * G * 0.25])
+
+
+def test_a_start_at_contact_moving_into_the_floor_neither_tunnels_nor_brakes():
+    """A tracked frame of a sliding cube carries a downward jitter: it must stay on the floor at full speed;
+    a ball caught at the floor mid-impact must rebound with its restitution."""
+    cube = Body3D(0, "cube", 0.1, friction=0.3)
+    ball = Body3D(1, "sphere", 0.1, restitution=0.5)
+    phase = Phase3D(0.0, (FLOOR,), ((0, State3D((0.0, 0.0, 0.0998), (1.35, 0.0, -0.2))),
+                                    (1, State3D((0.0, 3.0, 0.1), (0.0, 0.0, -2.0)))))
+    rollout = simulate3d(World3D((cube, ball), (phase,)), phase, 0.3)
+    slid = rollout.state(0, 0.3)
+    assert slid.position[2] == pytest.approx(0.1, abs=1e-3)
+    assert slid.position[0] == pytest.approx(1.35 * 0.3 - 0.5 * 0.3 * G * 0.3**2, abs=1e-3)  # Coulomb from full speed
+    assert rollout.state(1, 0.05).velocity[2] == pytest.approx(1.0 - G * 0.05, abs=1e-6)

@@ -151,7 +151,7 @@ def evaluate_scene(root: Path, index: int, e2e: bool) -> dict:
         for o in entry["objects"]:
             if entry["frame_id"] < num_frames:
                 in_view[o["object_id"]][entry["frame_id"]] = bool(o.get("inside_camera_view", True))
-    event_errors = []
+    event_errors, event_signed = [], {"in": [], "out": []}
     for pi, ti in assigned.items():
         track, seen = lifted[pi], in_view[true_ids[ti]]
         perceived = np.zeros(num_frames, bool)
@@ -159,12 +159,13 @@ def evaluate_scene(root: Path, index: int, e2e: bool) -> dict:
         for kind, truth_frame, our_frame in (("in", _first(seen), _first(perceived)), ("out", _last(seen) + 1, _last(perceived) + 1)):
             if kind == "in" and 0 < truth_frame < num_frames or kind == "out" and 0 < truth_frame < num_frames:
                 event_errors.append(abs(truth_frame - our_frame))
+                event_signed[kind].append(our_frame - truth_frame)
 
     result = {
         "scene": index, "wall_s": wall, "cpu_s": cpu, "recall": (tp_recall, n_true), "precision": (tp_precision, n_pred),
         "switches": switches, "fragmented": fragmented, "errors": errors, "attributes": attribute_hits,
         "objects": len(true_ids), "tracks": len(pred_ids), "missed_objects": missed_objects,
-        "timings": inter["timings"], "event_errors": event_errors,
+        "timings": inter["timings"], "event_errors": event_errors, "event_signed": event_signed,
         "look": json.loads((root / "ground_truth" / f"scene_{name}.json").read_text()).get("look") or {},
     }
     if e2e:
@@ -243,6 +244,10 @@ def main(argv: list[str] | None = None) -> int:
     if events.size:
         print(f"| entry/exit frame error: within 2 frames / median / max | {np.mean(events <= 2):.3f} ({int(np.sum(events <= 2))}/{events.size}) "
               f"/ {np.median(events):.0f} / {events.max():.0f} | all within 2 |")
+        for kind in ("in", "out"):
+            signed = [e for r in results for e in r["event_signed"][kind]]
+            if signed:
+                print(f"| {kind} frame, perceived - true: median / min / max (count) | {np.median(signed):+.0f} / {min(signed):+d} / {max(signed):+d} ({len(signed)}) | 0 |")
     if errors.size:
         print(f"| position error median / p95 (cm) | {np.median(errors) * RADIUS * 100:.2f} / {np.percentile(errors, 95) * RADIUS * 100:.2f} | median <= 1 |")
     print(f"| wall time per video (s) median / max (decode + perceive) | {np.median(walls):.2f} / {walls.max():.2f} | <= 3 / <= 8 |")

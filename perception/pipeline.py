@@ -22,7 +22,7 @@ from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
 from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, pixel_hue_labels
 from perception.track import HungarianTracker
-from perception.types import NEUTRAL, Attributes, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
+from perception.types import NEUTRAL, Attributes, Detection, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
 from world.camera import backproject_to_height, footprint_visible
 from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
@@ -61,6 +61,19 @@ def _isolated_frames(track: TrackState, segments: list[FrameSegments]) -> list[i
         if alone and not det.split and not det.touches_border and det.area >= 0.6 * typical:
             chosen.append(frame)
     return chosen
+
+
+SAME_SEGMENT_SHIFT = 0.25  # px: centroid shift below which a segment of equal area and box is the same object pose
+SAME_SEGMENT_AREA = 0.02  # relative area change allowed for the same (segmentation flickers by a few pixels)
+
+
+def _same_segment(a: Detection, b: Detection) -> bool:
+    """Whether two detections cover (nearly) the same pixels: equal box, area within 2 %, centroid within 0.25 px."""
+    if a.touches_border or b.touches_border or a.split or b.split or abs(a.area - b.area) > SAME_SEGMENT_AREA * a.area:
+        return False
+    if (a.ys.min(), a.ys.max(), a.xs.min(), a.xs.max()) != (b.ys.min(), b.ys.max(), b.xs.min(), b.xs.max()):
+        return False
+    return bool(np.linalg.norm(a.centroid - b.centroid) < SAME_SEGMENT_SHIFT)
 
 
 def _spread(frames: list[int], count: int) -> list[int]:
@@ -107,9 +120,13 @@ class PrimitiveLifter:
                                     highlight_ratio=ratio, shape_score=shape_score)
             frame_ids, positions, yaws, weights = [], [], [], []
             previous: Fit | None = None
+            reference: Detection | None = None  # the detection the previous fit was computed on
             for frame, det in sorted(track.detections.items()):
-                fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous)
-                previous = fit
+                if previous is not None and _same_segment(reference, det):
+                    fit = previous  # a resting object: the same pixels give the same pose (most frames of most videos)
+                else:
+                    fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous)
+                    previous, reference = fit, det
                 weight = float(np.clip(fit.score / 0.7, 0.0, 1.0))
                 if det.touches_border:
                     weight *= WEIGHT_BORDER

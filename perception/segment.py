@@ -31,6 +31,8 @@ from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, COLORS
 CHROMATIC = [c for c in COLORS if c != "gray"]
 _PROTOTYPES = np.array([np.asarray(PALETTE_RGB[c], float) / sum(PALETTE_RGB[c]) for c in CHROMATIC])
 _PROTOTYPE_LABELS = np.array([COLORS.index(c) for c in CHROMATIC])
+_PROTOTYPES = _PROTOTYPES.astype(np.float32)
+_PROTOTYPE_NORMS = (_PROTOTYPES ** 2).sum(axis=1)
 
 CANDIDATE_DIFFERENCE = 8  # grey levels: pixels closer than this to the background are floor
 MIN_SATURATION = 0.28  # (max - min) / max below which a pixel has no reliable hue
@@ -41,14 +43,16 @@ MIN_SEGMENT_AREA = 60  # px: smaller pieces are noise or anti-aliasing fringes
 
 def pixel_hue_labels(rgb: np.ndarray) -> np.ndarray:
     """(P,) colour labels (index into COLORS, or NEUTRAL) of (P, 3) RGB pixels, by nearest palette chromaticity."""
-    rgb = rgb.astype(np.float32)
-    high = rgb.max(axis=1)
-    low = rgb.min(axis=1)
-    saturation = (high - low) / np.maximum(high, 1.0)
-    chroma = rgb / np.maximum(rgb.sum(axis=1, keepdims=True), 1.0)
-    distance = ((chroma[:, None, :] - _PROTOTYPES[None]) ** 2).sum(axis=-1)
-    labels = _PROTOTYPE_LABELS[np.argmin(distance, axis=1)]
-    return np.where((saturation >= MIN_SATURATION) & (high >= MIN_BRIGHTNESS), labels, NEUTRAL)
+    high = rgb.max(axis=1).astype(np.float32)
+    low = rgb.min(axis=1).astype(np.float32)
+    hued = (high - low >= MIN_SATURATION * np.maximum(high, 1.0)) & (high >= MIN_BRIGHTNESS)
+    labels = np.full(len(rgb), NEUTRAL, dtype=np.int64)
+    if hued.any():
+        values = rgb[hued].astype(np.float32)
+        chroma = values / np.maximum(values.sum(axis=1, keepdims=True), 1.0)
+        # nearest prototype: |c - p|^2 = |c|^2 - 2 c.p + |p|^2, and |c|^2 is the same for every p
+        labels[hued] = _PROTOTYPE_LABELS[np.argmin(_PROTOTYPE_NORMS - 2.0 * chroma @ _PROTOTYPES.T, axis=1)]
+    return labels
 
 
 def classify_frame(frame: np.ndarray, background: Background) -> np.ndarray:

@@ -24,7 +24,7 @@ from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, pixel_hue_l
 from perception.track import HungarianTracker
 from perception.types import NEUTRAL, Attributes, Detection, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
-from world.camera import backproject_to_height, footprint_visible
+from world.camera import backproject_to_height, centre_in_view
 from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
 from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, SHAPE_KINDS, Camera
 
@@ -141,7 +141,7 @@ class PrimitiveLifter:
             frame_ids, positions, yaws, weights = _extend_through_border(
                 camera, kind, self.size, frames.shape[0], track, np.asarray(frame_ids, dtype=np.int64),
                 np.asarray(positions), np.asarray(yaws), np.asarray(weights))
-            visible = footprint_visible(camera, default_shape(kind, self.size), positions, np.nan_to_num(yaws))
+            visible = centre_in_view(camera, positions)
             lifted.append(LiftedTrack(track.id, attributes, frame_ids, positions, yaws, visible, weights))
             appearance[track.id] = track_appearance(track, frames)
         return _renumber(_associate(lifted, self.size, appearance))
@@ -150,13 +150,13 @@ class PrimitiveLifter:
 def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: int, track: TrackState,
                            frames: np.ndarray, positions: np.ndarray, yaws: np.ndarray, weights: np.ndarray):
     """Extend a track that enters (leaves) through the image border backwards (forwards) at constant
-    velocity over the frames where its footprint is already (still) in view but less of its
-    silhouette than MIN_SEGMENT_AREA is inside the image (too little to be segmented), so that entry and exit frames follow the same visibility rule as the
-    truth (world.camera.footprint_visible). Added frames get weight WEIGHT_EXTRAPOLATED.
+    velocity over the frames where its centre is already (still) in view but less of its
+    silhouette than MIN_SEGMENT_AREA is inside the image (too little to be segmented), so that
+    entry and exit frames follow the generator's visibility rule (world.camera.centre_in_view).
+    Added frames get weight WEIGHT_EXTRAPOLATED.
 
     frames (T,), positions (T, 3) m, yaws (T,), weights (T,) -> the same, extended.
     """
-    shape = default_shape(kind, size)
     ends = []
     for first, step in ((True, -1), (False, 1)):
         k = 0 if first else len(frames) - 1
@@ -172,7 +172,7 @@ def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: i
             if not 0 <= frame < num_frames:
                 break
             position = positions[k] + velocity * step * n
-            if not footprint_visible(camera, shape, position[None], np.zeros(1))[0]:
+            if not centre_in_view(camera, position[None])[0]:
                 break
             if silhouette(camera, kind, position, size)[1].sum() >= MIN_SEGMENT_AREA:
                 break  # this much of it in view would have been segmented: it was not there

@@ -55,12 +55,15 @@ def pixel_hue_labels(rgb: np.ndarray) -> np.ndarray:
     return labels
 
 
-def classify_frame(frame: np.ndarray, background: Background) -> np.ndarray:
-    """(H, W) uint8 FLOOR / AMBIGUOUS / OBJECT labels; only pixels that differ from the background are examined."""
-    reference = background.image
+def classify_frame(frame: np.ndarray, background: Background, reference: np.ndarray | None = None) -> np.ndarray:
+    """(H, W) uint8 FLOOR / AMBIGUOUS / OBJECT labels; only pixels that differ from the background are examined.
+
+    reference: (H, W, 3) int16 background image (background.image.astype(int16)), converted once per video by the caller.
+    """
+    reference = background.image.astype(np.int16) if reference is None else reference
     candidate = np.zeros(frame.shape[:2], dtype=bool)
     for channel in range(3):  # per channel: avoids a large (H, W, 3) temporary
-        difference = frame[..., channel].astype(np.int16) - reference[..., channel].astype(np.int16)
+        difference = frame[..., channel].astype(np.int16) - reference[..., channel]
         candidate |= (difference >= CANDIDATE_DIFFERENCE) | (difference <= -CANDIDATE_DIFFERENCE)
     labels = np.zeros(frame.shape[:2], dtype=np.uint8)
     ys, xs = np.nonzero(candidate)
@@ -76,9 +79,10 @@ def classify_frame(frame: np.ndarray, background: Background) -> np.ndarray:
     return labels
 
 
-def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 0) -> FrameSegments:
-    """Segments of one (H, W, 3) uint8 frame."""
-    labels = classify_frame(frame, background)
+def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 0,
+                  reference: np.ndarray | None = None) -> FrameSegments:
+    """Segments of one (H, W, 3) uint8 frame (reference: as classify_frame)."""
+    labels = classify_frame(frame, background, reference)
     height, width = labels.shape
     components, count = ndi.label(labels == OBJECT)
     detections: list[Detection] = []
@@ -159,4 +163,5 @@ class ClassicalSegmenter:
         iterator = range(frames.shape[0])
         if progress:
             iterator = tqdm(iterator, desc="segment", unit="frame")
-        return [segment_frame(frames[f], background, f) for f in iterator]
+        reference = background.image.astype(np.int16)  # once per video, not per frame
+        return [segment_frame(frames[f], background, f, reference) for f in iterator]

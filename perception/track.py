@@ -99,21 +99,19 @@ class HungarianTracker:
 
     def _split_shared(self, detections: list[Detection], live: list[TrackState], frame: int, camera: Camera) -> list[Detection]:
         """Split segments that hold two or more recently seen same-coloured tracks."""
+        claims = []  # (track, predicted pixel (u, v)) of every track that may own part of a segment this frame
+        for track in live:
+            predicted, gap = self._predict(track, frame)
+            if gap > SPLIT_MAX_GAP:  # merged into a touching same-coloured object since: still inside it
+                continue
+            pixel = project(camera, np.array([predicted[0], predicted[1], self.object_size]))
+            if np.all(np.isfinite(pixel)):
+                claims.append((track, pixel))
         result = []
         for det in detections:
-            owners = []
-            for track in live:
-                if track.hue_label != det.hue_label:
-                    continue
-                predicted, gap = self._predict(track, frame)
-                if gap > SPLIT_MAX_GAP:  # merged into a touching same-coloured object since: still inside it
-                    continue
-                pixel = project(camera, np.array([predicted[0], predicted[1], self.object_size]))
-                if not np.all(np.isfinite(pixel)):
-                    continue
-                inside = (det.xs.min() - 3 <= pixel[0] <= det.xs.max() + 3) and (det.ys.min() - 3 <= pixel[1] <= det.ys.max() + 3)
-                if inside:
-                    owners.append((track, pixel))
+            left, right, top, bottom = det.xs.min() - 3, det.xs.max() + 3, det.ys.min() - 3, det.ys.max() + 3
+            owners = [(track, pixel) for track, pixel in claims
+                      if track.hue_label == det.hue_label and left <= pixel[0] <= right and top <= pixel[1] <= bottom]
             if len(owners) < 2:
                 result.append(det)
                 continue

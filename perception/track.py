@@ -4,8 +4,8 @@ Each detection's centroid is back-projected to the plane of object centres
 (z = object half size) for a rough ground position; tracks predict with
 constant velocity and are matched to detections of the same colour label by
 ground distance within a gate that widens while a track is unseen (occlusion,
-merges); only a track seen in the last RELABEL_MAX_GAP frames may take a
-detection of another colour label. A segment holding two same-coloured tracks
+merges); a detection of another colour label is taken only by a track seen in
+the last RELABEL_MAX_GAP frames or within GATE_BASE of its prediction. A segment holding two same-coloured tracks
 (objects that touch, also one merged into the other for up to SPLIT_MAX_GAP
 frames) and larger than one of them is split between them by k-means on pixel
 coordinates seeded at the predicted positions. Tracks seen in fewer than MIN_TRACK_FRAMES frames are dropped and
@@ -31,7 +31,7 @@ MIN_TRACK_FRAMES = 4
 MIN_TRACK_AREA = 150  # px: a real object is larger than this in at least one frame
 SPLIT_SECOND_AREA = 0.5  # a segment larger than the biggest owner's usual area plus this share of the next one's holds them all
 SPLIT_MAX_GAP = 30  # frames: a track unseen this long still claims its part of a same-coloured segment it sits in
-RELABEL_MAX_GAP = 2  # frames: only a track seen this recently may take a detection of another colour label
+RELABEL_MAX_GAP = 2  # frames: a track unseen longer takes a detection of another colour label only within GATE_BASE
 
 
 class HungarianTracker:
@@ -62,7 +62,9 @@ class HungarianTracker:
                         continue
                     if det.hue_label == track.hue_label:
                         cost[i, j] = distance
-                    elif gap <= RELABEL_MAX_GAP:  # a colour re-read frame to frame; a lost track must find its own colour
+                    elif gap <= RELABEL_MAX_GAP or distance <= GATE_BASE:
+                        # a colour re-read (metal highlights, contacts); only the widened gate of a lost track
+                        # is kept to its own colour, so that it cannot grab another object passing by
                         cost[i, j] = distance + HUE_MISMATCH_COST
             matched = set()
             if live and detections:

@@ -51,7 +51,7 @@ def _frames(objects_per_frame: list[list[tuple]]) -> list[FrameSegments]:
 
 def test_a_lost_track_does_not_take_a_detection_of_another_colour():
     frames = [[((-1.0 + 0.03 * f, 0.0), RED)] for f in range(10)] + [[] for _ in range(10)]
-    frames += [[((-1.0 + 0.03 * f, 0.0), BROWN)] for f in range(20, 30)]
+    frames += [[((-1.0 + 0.03 * f, 1.0), BROWN)] for f in range(20, 30)]  # inside the widened gate, 1 m off the prediction
     tracks = HungarianTracker(SIZE).track(_frames(frames), CAMERA)
     assert len(tracks) == 2 and sorted(len(t.detections) for t in tracks) == [10, 10]
 

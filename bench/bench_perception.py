@@ -2,7 +2,8 @@
 
 Usage:
   MUJOCO_GL=egl physmind synth --out /tmp/perc_bench --scenes 50 --seed 777 --workers 2
-  python -m bench.bench_perception /tmp/perc_bench [--limit N] [--no-e2e] [--worst K]
+  python -m bench.bench_perception /tmp/perc_bench [--limit N] [--no-e2e] [--worst K] [--json OUT]
+  python -m bench.bench_perception --from-json OUT1 OUT2   # the tables of saved per-scene results together
 
 Per video: perceive, then match perceived tracks to the generator's objects by
 total mask IoU over frames (Hungarian). Masks of perceived objects are the
@@ -151,7 +152,7 @@ def evaluate_scene(root: Path, index: int, e2e: bool) -> dict:
         for o in entry["objects"]:
             if entry["frame_id"] < num_frames:
                 in_view[o["object_id"]][entry["frame_id"]] = bool(o.get("inside_camera_view", True))
-    event_errors = []
+    event_errors, event_signed = [], {"in": [], "out": []}
     for pi, ti in assigned.items():
         track, seen = lifted[pi], in_view[true_ids[ti]]
         perceived = np.zeros(num_frames, bool)
@@ -159,12 +160,13 @@ def evaluate_scene(root: Path, index: int, e2e: bool) -> dict:
         for kind, truth_frame, our_frame in (("in", _first(seen), _first(perceived)), ("out", _last(seen) + 1, _last(perceived) + 1)):
             if kind == "in" and 0 < truth_frame < num_frames or kind == "out" and 0 < truth_frame < num_frames:
                 event_errors.append(abs(truth_frame - our_frame))
+                event_signed[kind].append(our_frame - truth_frame)
 
     result = {
         "scene": index, "wall_s": wall, "cpu_s": cpu, "recall": (tp_recall, n_true), "precision": (tp_precision, n_pred),
         "switches": switches, "fragmented": fragmented, "errors": errors, "attributes": attribute_hits,
         "objects": len(true_ids), "tracks": len(pred_ids), "missed_objects": missed_objects,
-        "timings": inter["timings"], "event_errors": event_errors,
+        "timings": inter["timings"], "event_errors": event_errors, "event_signed": event_signed,
         "look": json.loads((root / "ground_truth" / f"scene_{name}.json").read_text()).get("look") or {},
     }
     if e2e:
@@ -209,15 +211,24 @@ def _f1(tp: int, predicted: int, actual: int) -> float:
 
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("root", type=Path, help="dataset written by `physmind synth`")
+    parser.add_argument("root", type=Path, nargs="?", help="dataset written by `physmind synth`")
+    parser.add_argument("--from-json", type=Path, nargs="+", metavar="JSON",
+                        help="print the tables from per-scene results saved with --json (e.g. halves of a dataset run in parallel) instead of running")
     parser.add_argument("--limit", type=int, default=None)
     parser.add_argument("--no-e2e", action="store_true", help="skip identification end to end")
     parser.add_argument("--worst", type=int, default=5, help="list this many weakest scenes")
     parser.add_argument("--json", type=Path, help="also write per-scene results here")
     args = parser.parse_args(argv)
 
-    indices = sorted(int(p.stem.split("_")[1]) for p in (args.root / "videos").glob("video_*.mp4"))[: args.limit]
-    results = [evaluate_scene(args.root, i, not args.no_e2e) for i in tqdm(indices, desc="bench", unit="video")]
+    if args.from_json:
+        results = [r for path in args.from_json for r in json.loads(path.read_text())]
+        args.root = ", ".join(str(path) for path in args.from_json)
+        args.no_e2e = not all("e2e" in r for r in results)
+    elif args.root is None:
+        parser.error("give a dataset directory or --from-json")
+    else:
+        indices = sorted(int(p.stem.split("_")[1]) for p in (args.root / "videos").glob("video_*.mp4"))[: args.limit]
+        results = [evaluate_scene(args.root, i, not args.no_e2e) for i in tqdm(indices, desc="bench", unit="video")]
 
     def total(key: str) -> tuple[int, int]:
         return sum(r[key][0] for r in results), sum(r[key][1] for r in results)
@@ -243,12 +254,17 @@ def main(argv: list[str] | None = None) -> int:
     if events.size:
         print(f"| entry/exit frame error: within 2 frames / median / max | {np.mean(events <= 2):.3f} ({int(np.sum(events <= 2))}/{events.size}) "
               f"/ {np.median(events):.0f} / {events.max():.0f} | all within 2 |")
+        for kind in ("in", "out"):
+            signed = [e for r in results for e in r["event_signed"][kind]]
+            if signed:
+                print(f"| {kind} frame, perceived - true: median / min / max (count) | {np.median(signed):+.0f} / {min(signed):+d} / {max(signed):+d} ({len(signed)}) | 0 |")
     if errors.size:
         print(f"| position error median / p95 (cm) | {np.median(errors) * RADIUS * 100:.2f} / {np.percentile(errors, 95) * RADIUS * 100:.2f} | median <= 1 |")
     print(f"| wall time per video (s) median / max (decode + perceive) | {np.median(walls):.2f} / {walls.max():.2f} | <= 3 / <= 8 |")
     cpus = np.array([r["cpu_s"] for r in results])
     print(f"| CPU time per video (s) median / max (decode + perceive; what an unloaded core would take) | {np.median(cpus):.2f} / {cpus.max():.2f} | |")
-    print(f"| machine load average (1, 5, 15 min) at the end | {' '.join(f'{x:.1f}' for x in os.getloadavg())} | 2 cores |")
+    if not args.from_json:
+        print(f"| machine load average (1, 5, 15 min) at the end | {' '.join(f'{x:.1f}' for x in os.getloadavg())} | 2 cores |")
     by_floor: dict[str, list[dict]] = {}
     for r in results:
         look = r["look"]
@@ -278,7 +294,7 @@ def main(argv: list[str] | None = None) -> int:
         misses = {k: len(v) - sum(v) for k, v in r["attributes"].items() if k != "features"}
         print(f"  {r['scene']:5d} {r['recall'][0] / max(r['recall'][1], 1):.3f} {r['precision'][0] / max(r['precision'][1], 1):.3f} "
               f"{r['switches']} {r['fragmented']} {r['missed_objects']} {misses}")
-    if args.json:
+    if args.json and not args.from_json:
         args.json.write_text(json.dumps(results, default=lambda o: o.tolist() if hasattr(o, "tolist") else float(o), indent=1))
     return 0
 

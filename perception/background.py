@@ -71,7 +71,7 @@ def fit_floor(median: np.ndarray, iterations: int = 4) -> np.ndarray:
     return fit.reshape(height, width, 3).astype(np.float32)
 
 
-def estimate_background(frames: np.ndarray, max_samples: int = 40) -> Background:
+def estimate_background(frames: np.ndarray, max_samples: int = 25) -> Background:
     """Background of a static-camera video.
 
     frames: (F, H, W, 3) uint8 RGB. Uses at most ``max_samples`` evenly spaced

@@ -14,18 +14,19 @@ from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 from tqdm import tqdm
 
 from perception.attributes import color_of, material_of
 from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
-from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter
+from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, pixel_hue_labels
 from perception.track import HungarianTracker
-from perception.types import Attributes, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
+from perception.types import NEUTRAL, Attributes, Detection, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
-from world.camera import backproject_to_height, footprint_visible
+from world.camera import backproject_to_height, centre_in_view
 from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
-from world.types import SHAPE_KINDS, Camera
+from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, SHAPE_KINDS, Camera
 
 MAX_ATTRIBUTE_FRAMES = 6  # isolated frames used to decide shape / material
 MIN_SHAPE_SCORE = 0.4  # mean silhouette overlap below which a track is not an object
@@ -41,6 +42,13 @@ MAX_EXTRAPOLATED_FRAMES = 10
 MAX_LINK_GAP = 40  # frames: longest gap (occlusion, lost detection) across which two tracklets are joined
 LINK_GATE = 0.45  # m: largest distance between a tracklet's predicted position and the next one's start ...
 LINK_GATE_PER_FRAME = 0.02  # ... plus this per frame of gap (the prediction is held after 5 frames)
+LINK_SPEED_SLACK = 1.5  # the jump across a gap may be this much more than the faster tracklet end's speed allows ...
+MAX_SPEED = 0.2  # m/frame (5 m/s at 25 fps): ... but never more than this per frame
+MAX_LINK_APPEARANCE = 0.3  # appearance_distance above which two tracklets are different objects (red vs blue, not red vs brown)
+SHAPE_MISMATCH_COST = 0.5  # added link cost when the tracklets were read as different shapes
+LINK_REFUSED = 2.5  # link cost at which ending a tracklet is as good as continuing it (motion + appearance + shape terms)
+APPEARANCE_FRAMES = 12  # frames along a tracklet whose pixels make its appearance
+MIN_ATTRIBUTE_FRAMES = 10  # a joined track takes attributes from a tracklet at least this long when there is one
 
 
 def _isolated_frames(track: TrackState, segments: list[FrameSegments]) -> list[int]:
@@ -53,6 +61,19 @@ def _isolated_frames(track: TrackState, segments: list[FrameSegments]) -> list[i
         if alone and not det.split and not det.touches_border and det.area >= 0.6 * typical:
             chosen.append(frame)
     return chosen
+
+
+SAME_SEGMENT_SHIFT = 0.25  # px: centroid shift below which a segment of equal area and box is the same object pose
+SAME_SEGMENT_AREA = 0.02  # relative area change allowed for the same (segmentation flickers by a few pixels)
+
+
+def _same_segment(a: Detection, b: Detection) -> bool:
+    """Whether two detections cover (nearly) the same pixels: equal box, area within 2 %, centroid within 0.25 px."""
+    if a.touches_border or b.touches_border or a.split or b.split or abs(a.area - b.area) > SAME_SEGMENT_AREA * a.area:
+        return False
+    if (a.ys.min(), a.ys.max(), a.xs.min(), a.xs.max()) != (b.ys.min(), b.ys.max(), b.xs.min(), b.xs.max()):
+        return False
+    return bool(np.linalg.norm(a.centroid - b.centroid) < SAME_SEGMENT_SHIFT)
 
 
 def _spread(frames: list[int], count: int) -> list[int]:
@@ -85,7 +106,7 @@ class PrimitiveLifter:
         iterator = tracks
         if progress:
             iterator = tqdm(tracks, desc="lift", unit="object")
-        lifted = []
+        lifted, appearance = [], {}
         for track in iterator:
             isolated = _isolated_frames(track, segments)
             basis = _spread(isolated, MAX_ATTRIBUTE_FRAMES) or _spread(sorted(track.detections), MAX_ATTRIBUTE_FRAMES)
@@ -99,9 +120,13 @@ class PrimitiveLifter:
                                     highlight_ratio=ratio, shape_score=shape_score)
             frame_ids, positions, yaws, weights = [], [], [], []
             previous: Fit | None = None
+            reference: Detection | None = None  # the detection the previous fit was computed on
             for frame, det in sorted(track.detections.items()):
-                fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous)
-                previous = fit
+                if previous is not None and _same_segment(reference, det):
+                    fit = previous  # a resting object: the same pixels give the same pose (most frames of most videos)
+                else:
+                    fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous)
+                    previous, reference = fit, det
                 weight = float(np.clip(fit.score / 0.7, 0.0, 1.0))
                 if det.touches_border:
                     weight *= WEIGHT_BORDER
@@ -116,21 +141,22 @@ class PrimitiveLifter:
             frame_ids, positions, yaws, weights = _extend_through_border(
                 camera, kind, self.size, frames.shape[0], track, np.asarray(frame_ids, dtype=np.int64),
                 np.asarray(positions), np.asarray(yaws), np.asarray(weights))
-            visible = footprint_visible(camera, default_shape(kind, self.size), positions, np.nan_to_num(yaws))
+            visible = centre_in_view(camera, positions)
             lifted.append(LiftedTrack(track.id, attributes, frame_ids, positions, yaws, visible, weights))
-        return _renumber(_associate(lifted, self.size))
+            appearance[track.id] = track_appearance(track, frames)
+        return _renumber(_associate(lifted, self.size, appearance))
 
 
 def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: int, track: TrackState,
                            frames: np.ndarray, positions: np.ndarray, yaws: np.ndarray, weights: np.ndarray):
     """Extend a track that enters (leaves) through the image border backwards (forwards) at constant
-    velocity over the frames where its footprint is already (still) in view but less of its
-    silhouette than MIN_SEGMENT_AREA is inside the image (too little to be segmented), so that entry and exit frames follow the same visibility rule as the
-    truth (world.camera.footprint_visible). Added frames get weight WEIGHT_EXTRAPOLATED.
+    velocity over the frames where its centre is already (still) in view but less of its
+    silhouette than MIN_SEGMENT_AREA is inside the image (too little to be segmented), so that
+    entry and exit frames follow the generator's visibility rule (world.camera.centre_in_view).
+    Added frames get weight WEIGHT_EXTRAPOLATED.
 
     frames (T,), positions (T, 3) m, yaws (T,), weights (T,) -> the same, extended.
     """
-    shape = default_shape(kind, size)
     ends = []
     for first, step in ((True, -1), (False, 1)):
         k = 0 if first else len(frames) - 1
@@ -146,7 +172,7 @@ def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: i
             if not 0 <= frame < num_frames:
                 break
             position = positions[k] + velocity * step * n
-            if not footprint_visible(camera, shape, position[None], np.zeros(1))[0]:
+            if not centre_in_view(camera, position[None])[0]:
                 break
             if silhouette(camera, kind, position, size)[1].sum() >= MIN_SEGMENT_AREA:
                 break  # this much of it in view would have been segmented: it was not there
@@ -179,56 +205,142 @@ def _union(keep: LiftedTrack, other: LiftedTrack) -> LiftedTrack:
                    visible=np.array([t.visible[k] for t, k in pick]), weights=np.array([t.weights[k] for t, k in pick]))
 
 
-def _same_look(a: LiftedTrack, b: LiftedTrack) -> bool:
-    return a.attributes.color == b.attributes.color and a.attributes.shape == b.attributes.shape
+def track_appearance(track: TrackState, frames: np.ndarray, count: int = APPEARANCE_FRAMES) -> np.ndarray:
+    """(4,) appearance of a tracklet over its whole life: mean chromaticity (r, g, b sum to 1) of its
+    pixels that have a hue, and the fraction of hue-less pixels, over ``count`` frames spread along it."""
+    chroma_sum, coloured, total = np.zeros(3), 0, 0
+    for frame in _spread(sorted(track.detections), count):
+        det = track.detections[frame]
+        rgb = frames[frame][det.ys, det.xs]
+        labels = pixel_hue_labels(rgb)
+        hued = rgb[labels != NEUTRAL].astype(np.float64)
+        chroma_sum += (hued / np.maximum(hued.sum(axis=1, keepdims=True), 1.0)).sum(axis=0)
+        coloured += len(hued)
+        total += len(rgb)
+    chroma = chroma_sum / coloured if coloured else np.full(3, 1.0 / 3.0)
+    return np.append(chroma, 1.0 - coloured / max(total, 1))
 
 
-def _link_cost(earlier: LiftedTrack, later: LiftedTrack, size: float) -> float:
-    """Ground distance (m) between ``earlier``'s constant-velocity prediction and ``later``'s first
-    position, for a tracklet that starts after the other ends; inf when they cannot be one object."""
+def _palette_appearance(color: str) -> np.ndarray:
+    """(4,) appearance of an ideal object of a palette colour (used when no pixels are at hand)."""
+    rgb = np.asarray(PALETTE_RGB[color], dtype=float)
+    return np.append(rgb / rgb.sum(), 1.0 if color == "gray" else 0.0)
+
+
+def appearance_distance(a: np.ndarray, b: np.ndarray) -> float:
+    """Distance between two (4,) appearances: chromaticity difference plus half the hue-less fraction difference.
+    Around 0.02 for one object seen under different shading, 0.15-0.25 for red/brown or brown/yellow, > 0.4 for red/blue."""
+    return float(np.linalg.norm(a[:3] - b[:3]) + 0.5 * abs(a[3] - b[3]))
+
+
+def _end_velocity(track: LiftedTrack, at_start: bool) -> np.ndarray:
+    """(2,) m/frame plane velocity over the first (last) EXTRAPOLATION_BASE + 1 samples of a tracklet."""
+    base = slice(0, EXTRAPOLATION_BASE + 1) if at_start else slice(-EXTRAPOLATION_BASE - 1, None)
+    positions, frames = track.positions[base, :2], track.frames[base]
+    return (positions[-1] - positions[0]) / max(int(frames[-1] - frames[0]), 1)
+
+
+def _link_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, np.ndarray]) -> float:
+    """Cost (dimensionless, < LINK_REFUSED) that ``later`` continues ``earlier``, or inf when they cannot be one object.
+
+    Motion: ``earlier``'s constant-velocity prediction (held after 5 frames) must land within a gate of
+    ``later``'s first position, and the jump across the gap must be one the tracklets' own speeds can
+    make (a resting object does not reappear a metre away). Appearance: colour likelihood from the whole
+    tracklets, soft (a colour re-read after a contact still joins) but refused when clearly another colour.
+    """
     gap = int(later.frames[0] - earlier.frames[-1])
-    if not 0 < gap <= MAX_LINK_GAP or not _same_look(earlier, later):
+    if not 0 < gap <= MAX_LINK_GAP:
         return np.inf
-    base = earlier.positions[-EXTRAPOLATION_BASE - 1:]
-    span = max(int(earlier.frames[-1] - earlier.frames[-min(len(earlier.frames), EXTRAPOLATION_BASE + 1)]), 1)
-    velocity = (base[-1] - base[0]) / span
-    predicted = earlier.positions[-1] + velocity * min(gap, 5)
-    distance = float(np.linalg.norm(predicted[:2] - later.positions[0, :2]))
-    return distance if distance <= LINK_GATE + LINK_GATE_PER_FRAME * gap else np.inf
+    colour = appearance_distance(appearance[earlier.id], appearance[later.id])
+    if colour > MAX_LINK_APPEARANCE:
+        return np.inf
+    velocity = _end_velocity(earlier, at_start=False)
+    predicted = earlier.positions[-1, :2] + velocity * min(gap, 5)
+    gate = LINK_GATE + LINK_GATE_PER_FRAME * gap
+    distance = float(np.linalg.norm(predicted - later.positions[0, :2]))
+    speed = max(float(np.linalg.norm(velocity)), float(np.linalg.norm(_end_velocity(later, at_start=True))))
+    jump = float(np.linalg.norm(later.positions[0, :2] - earlier.positions[-1, :2]))
+    if distance > gate or jump > LINK_GATE + min(LINK_SPEED_SLACK * speed, MAX_SPEED) * gap:
+        return np.inf
+    shape = 0.0 if earlier.attributes.shape == later.attributes.shape else SHAPE_MISMATCH_COST
+    return distance / gate + colour / MAX_LINK_APPEARANCE + shape
 
 
-def _associate(lifted: list[LiftedTrack], size: float) -> list[LiftedTrack]:
+def _support(track: LiftedTrack) -> float:
+    return track.attributes.shape_score * len(track.frames)
+
+
+def _attribute_source(group: list[LiftedTrack]) -> LiftedTrack:
+    """The tracklet whose attributes a joined track keeps: the best primitive fit among tracklets long
+    enough to judge (short fragments at contacts are often cut and misread), else the best supported."""
+    long_enough = [t for t in group if len(t.frames) >= MIN_ATTRIBUTE_FRAMES]
+    if long_enough:
+        return max(long_enough, key=lambda t: (t.attributes.shape_score, len(t.frames)))
+    return max(group, key=_support)
+
+
+def _join(group: list[LiftedTrack], appearance: dict[int, np.ndarray]) -> LiftedTrack:
+    """One track from tracklets of one object (frames merged by weight), with the attributes of
+    _attribute_source and its id; the joined appearance is the frame-weighted mean of the parts'."""
+    source = _attribute_source(group)
+    ordered = sorted(group, key=_support, reverse=True)
+    joined = ordered[0]
+    for other in ordered[1:]:
+        joined = _union(joined, other)
+    joined = replace(joined, id=source.id, attributes=source.attributes)
+    counts = np.array([len(t.frames) for t in group], dtype=float)
+    appearance[source.id] = np.average([appearance[t.id] for t in group], axis=0, weights=counts)
+    return joined
+
+
+def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.ndarray] | None = None) -> list[LiftedTrack]:
     """Global association of tracklets over the whole video.
 
+    appearance: track id -> (4,) track_appearance; without it, the palette colour of each tracklet.
+
     1. Duplicates: two tracklets whose centres stay closer than one object size on most common
-       frames are one object (two solid objects cannot be that close): the better supported one
-       takes the other's frames.
-    2. Fragments: a tracklet that starts after another of the same colour and shape ended, near
-       where that one was heading, continues it (an occlusion, a merge with a touching object, a
-       lost detection). Links are made cheapest first, each tracklet continuing at most one.
+       frames are one object whatever colour or shape each was read as (two solid objects cannot be
+       that close; a metal object split into a lit and a dark piece gives two such tracklets).
+    2. Fragments: a tracklet that starts after another one ended, near where that one was heading,
+       with a speed it could have and a similar colour, continues it (an occlusion, a merge with a
+       touching object, a lost detection, a colour re-read at a contact). All ends are assigned to
+       all starts at once (Hungarian, each tracklet continues at most one), not greedily.
     """
-    order = sorted(lifted, key=lambda t: (t.attributes.shape_score * len(t.frames)), reverse=True)
-    kept: list[LiftedTrack] = []
-    for track in order:
-        for index, other in enumerate(kept):
-            common, ia, ib = np.intersect1d(track.frames, other.frames, return_indices=True)
+    appearance = dict(appearance) if appearance is not None else {t.id: _palette_appearance(t.attributes.color) for t in lifted}
+    groups: list[list[LiftedTrack]] = []
+    for track in sorted(lifted, key=_support, reverse=True):
+        for group in groups:
+            anchor = group[0]
+            common, ia, ib = np.intersect1d(track.frames, anchor.frames, return_indices=True)
             if common.size == 0:
                 continue
-            gaps = np.linalg.norm(track.positions[ia, :2] - other.positions[ib, :2], axis=1)
+            gaps = np.linalg.norm(track.positions[ia, :2] - anchor.positions[ib, :2], axis=1)
             if np.mean(gaps < size) > 0.5:
-                kept[index] = _union(other, track) if _same_look(track, other) else other
+                group.append(track)
                 break
         else:
-            kept.append(track)
-    while True:
-        costs = [(_link_cost(a, b, size), i, j) for i, a in enumerate(kept) for j, b in enumerate(kept) if i != j]
-        finite = [c for c in costs if np.isfinite(c[0])]
-        if not finite:
-            return kept
-        _, i, j = min(finite)
-        a, b = kept[i], kept[j]
-        better, worse = (a, b) if a.attributes.shape_score * len(a.frames) >= b.attributes.shape_score * len(b.frames) else (b, a)
-        kept = [t for k, t in enumerate(kept) if k not in (i, j)] + [_union(better, worse)]
+            groups.append([track])
+    kept = [_join(group, appearance) if len(group) > 1 else group[0] for group in groups]
+
+    count = len(kept)
+    if count < 2:
+        return kept
+    costs = np.array([[_link_cost(a, b, appearance) if i != j else np.inf for j, b in enumerate(kept)] for i, a in enumerate(kept)])
+    # Columns 0..n-1: "continues as tracklet j"; column n+i: "ends here" at cost LINK_REFUSED.
+    table = np.full((count, 2 * count), 1e9)
+    table[:, :count] = np.where(np.isfinite(costs), costs, 1e9)
+    table[np.arange(count), count + np.arange(count)] = LINK_REFUSED
+    rows, cols = linear_sum_assignment(table)
+    successor = {int(i): int(j) for i, j in zip(rows, cols) if j < count and costs[i, j] < LINK_REFUSED}
+    heads = set(range(count)) - set(successor.values())
+    result = []
+    for head in sorted(heads):
+        chain, k = [kept[head]], head
+        while k in successor:
+            k = successor[k]
+            chain.append(kept[k])
+        result.append(_join(chain, appearance) if len(chain) > 1 else chain[0])
+    return result
 
 
 def _renumber(lifted: list[LiftedTrack]) -> list[LiftedTrack]:
@@ -275,17 +387,19 @@ def perceive_frames(frames: np.ndarray, camera: Camera, *, fps: float = 25.0, pr
     (check_frames) and when no object is found: never an empty world.
     """
     check_frames(frames, camera)
-    timings = {}
-    began = time.perf_counter()
+    timings: dict[str, float] = {}  # per stage: wall seconds (<stage>_s) and CPU seconds of this process (<stage>_cpu_s)
+
+    def timed(stage: str, work):
+        wall, cpu = time.perf_counter(), time.process_time()
+        result = work()
+        timings[f"{stage}_s"] = time.perf_counter() - wall
+        timings[f"{stage}_cpu_s"] = time.process_time() - cpu
+        return result
+
     segmenter = segmenter or ClassicalSegmenter()
-    segments = segmenter.segment(frames, progress=progress)
-    timings["segment_s"] = time.perf_counter() - began
-    began = time.perf_counter()
-    tracks = (tracker or HungarianTracker(object_size)).track(segments, camera)
-    timings["track_s"] = time.perf_counter() - began
-    began = time.perf_counter()
-    lifted = (lifter or PrimitiveLifter(object_size)).lift(frames, segments, tracks, camera, progress=progress)
-    timings["lift_s"] = time.perf_counter() - began
+    segments = timed("segment", lambda: segmenter.segment(frames, progress=progress))
+    tracks = timed("track", lambda: (tracker or HungarianTracker(object_size)).track(segments, camera))
+    lifted = timed("lift", lambda: (lifter or PrimitiveLifter(object_size)).lift(frames, segments, tracks, camera, progress=progress))
     objects = tuple(
         ObjectTrack(id=t.id, shape=default_shape(t.attributes.shape, object_size), frames=t.frames, positions=t.positions,
                     yaw=t.yaw, visible=t.visible, weights=t.weights, color=t.attributes.color, material=t.attributes.material)

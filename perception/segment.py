@@ -31,6 +31,8 @@ from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, COLORS
 CHROMATIC = [c for c in COLORS if c != "gray"]
 _PROTOTYPES = np.array([np.asarray(PALETTE_RGB[c], float) / sum(PALETTE_RGB[c]) for c in CHROMATIC])
 _PROTOTYPE_LABELS = np.array([COLORS.index(c) for c in CHROMATIC])
+_PROTOTYPES = _PROTOTYPES.astype(np.float32)
+_PROTOTYPE_NORMS = (_PROTOTYPES ** 2).sum(axis=1)
 
 CANDIDATE_DIFFERENCE = 8  # grey levels: pixels closer than this to the background are floor
 MIN_SATURATION = 0.28  # (max - min) / max below which a pixel has no reliable hue
@@ -41,22 +43,27 @@ MIN_SEGMENT_AREA = 60  # px: smaller pieces are noise or anti-aliasing fringes
 
 def pixel_hue_labels(rgb: np.ndarray) -> np.ndarray:
     """(P,) colour labels (index into COLORS, or NEUTRAL) of (P, 3) RGB pixels, by nearest palette chromaticity."""
-    rgb = rgb.astype(np.float32)
-    high = rgb.max(axis=1)
-    low = rgb.min(axis=1)
-    saturation = (high - low) / np.maximum(high, 1.0)
-    chroma = rgb / np.maximum(rgb.sum(axis=1, keepdims=True), 1.0)
-    distance = ((chroma[:, None, :] - _PROTOTYPES[None]) ** 2).sum(axis=-1)
-    labels = _PROTOTYPE_LABELS[np.argmin(distance, axis=1)]
-    return np.where((saturation >= MIN_SATURATION) & (high >= MIN_BRIGHTNESS), labels, NEUTRAL)
+    high = rgb.max(axis=1).astype(np.float32)
+    low = rgb.min(axis=1).astype(np.float32)
+    hued = (high - low >= MIN_SATURATION * np.maximum(high, 1.0)) & (high >= MIN_BRIGHTNESS)
+    labels = np.full(len(rgb), NEUTRAL, dtype=np.int64)
+    if hued.any():
+        values = rgb[hued].astype(np.float32)
+        chroma = values / np.maximum(values.sum(axis=1, keepdims=True), 1.0)
+        # nearest prototype: |c - p|^2 = |c|^2 - 2 c.p + |p|^2, and |c|^2 is the same for every p
+        labels[hued] = _PROTOTYPE_LABELS[np.argmin(_PROTOTYPE_NORMS - 2.0 * chroma @ _PROTOTYPES.T, axis=1)]
+    return labels
 
 
-def classify_frame(frame: np.ndarray, background: Background) -> np.ndarray:
-    """(H, W) uint8 FLOOR / AMBIGUOUS / OBJECT labels; only pixels that differ from the background are examined."""
-    reference = background.image
+def classify_frame(frame: np.ndarray, background: Background, reference: np.ndarray | None = None) -> np.ndarray:
+    """(H, W) uint8 FLOOR / AMBIGUOUS / OBJECT labels; only pixels that differ from the background are examined.
+
+    reference: (H, W, 3) int16 background image (background.image.astype(int16)), converted once per video by the caller.
+    """
+    reference = background.image.astype(np.int16) if reference is None else reference
     candidate = np.zeros(frame.shape[:2], dtype=bool)
     for channel in range(3):  # per channel: avoids a large (H, W, 3) temporary
-        difference = frame[..., channel].astype(np.int16) - reference[..., channel].astype(np.int16)
+        difference = frame[..., channel].astype(np.int16) - reference[..., channel]
         candidate |= (difference >= CANDIDATE_DIFFERENCE) | (difference <= -CANDIDATE_DIFFERENCE)
     labels = np.zeros(frame.shape[:2], dtype=np.uint8)
     ys, xs = np.nonzero(candidate)
@@ -72,9 +79,10 @@ def classify_frame(frame: np.ndarray, background: Background) -> np.ndarray:
     return labels
 
 
-def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 0) -> FrameSegments:
-    """Segments of one (H, W, 3) uint8 frame."""
-    labels = classify_frame(frame, background)
+def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 0,
+                  reference: np.ndarray | None = None) -> FrameSegments:
+    """Segments of one (H, W, 3) uint8 frame (reference: as classify_frame)."""
+    labels = classify_frame(frame, background, reference)
     height, width = labels.shape
     components, count = ndi.label(labels == OBJECT)
     detections: list[Detection] = []
@@ -155,4 +163,5 @@ class ClassicalSegmenter:
         iterator = range(frames.shape[0])
         if progress:
             iterator = tqdm(iterator, desc="segment", unit="frame")
-        return [segment_frame(frames[f], background, f) for f in iterator]
+        reference = background.image.astype(np.int16)  # once per video, not per frame
+        return [segment_frame(frames[f], background, f, reference) for f in iterator]

@@ -4,9 +4,11 @@ Each detection's centroid is back-projected to the plane of object centres
 (z = object half size) for a rough ground position; tracks predict with
 constant velocity and are matched to detections of the same colour label by
 ground distance within a gate that widens while a track is unseen (occlusion,
-merges). A segment holding two same-coloured tracks (objects that touch) is
-split between them by k-means on pixel coordinates seeded at the predicted
-positions. Tracks seen in fewer than MIN_TRACK_FRAMES frames are dropped and
+merges); a detection of another colour label is taken only by a track seen in
+the last RELABEL_MAX_GAP frames or within GATE_BASE of its prediction. A segment holding two same-coloured tracks
+(objects that touch, also one merged into the other for up to SPLIT_MAX_GAP
+frames) and larger than one of them is split between them by k-means on pixel
+coordinates seeded at the predicted positions. Tracks seen in fewer than MIN_TRACK_FRAMES frames are dropped and
 ids are renumbered 0..K-1 by first appearance.
 """
 
@@ -27,7 +29,9 @@ GATE_MAX = 2.0  # m
 HUE_MISMATCH_COST = 1.0  # m-equivalent penalty: a colour label change is allowed but costly
 MIN_TRACK_FRAMES = 4
 MIN_TRACK_AREA = 150  # px: a real object is larger than this in at least one frame
-SPLIT_AREA_FACTOR = 1.35  # a segment this much larger than a track's usual area may hold two objects
+SPLIT_SECOND_AREA = 0.5  # a segment larger than the biggest owner's usual area plus this share of the next one's holds them all
+SPLIT_MAX_GAP = 30  # frames: a track unseen this long still claims its part of a same-coloured segment it sits in
+RELABEL_MAX_GAP = 2  # frames: a track unseen longer takes a detection of another colour label only within GATE_BASE
 
 
 class HungarianTracker:
@@ -54,8 +58,14 @@ class HungarianTracker:
                 gate = min(GATE_BASE + GATE_PER_MISSED_FRAME * (gap - 1), GATE_MAX)
                 for j, det in enumerate(detections):
                     distance = float(np.linalg.norm(grounds[j] - predicted))
-                    if distance <= gate:
-                        cost[i, j] = distance + (0.0 if det.hue_label == track.hue_label else HUE_MISMATCH_COST)
+                    if distance > gate:
+                        continue
+                    if det.hue_label == track.hue_label:
+                        cost[i, j] = distance
+                    elif gap <= RELABEL_MAX_GAP or distance <= GATE_BASE:
+                        # a colour re-read (metal highlights, contacts); only the widened gate of a lost track
+                        # is kept to its own colour, so that it cannot grab another object passing by
+                        cost[i, j] = distance + HUE_MISMATCH_COST
             matched = set()
             if live and detections:
                 rows, cols = linear_sum_assignment(cost)
@@ -91,26 +101,24 @@ class HungarianTracker:
 
     def _split_shared(self, detections: list[Detection], live: list[TrackState], frame: int, camera: Camera) -> list[Detection]:
         """Split segments that hold two or more recently seen same-coloured tracks."""
+        claims = []  # (track, predicted pixel (u, v)) of every track that may own part of a segment this frame
+        for track in live:
+            predicted, gap = self._predict(track, frame)
+            if gap > SPLIT_MAX_GAP:  # merged into a touching same-coloured object since: still inside it
+                continue
+            pixel = project(camera, np.array([predicted[0], predicted[1], self.object_size]))
+            if np.all(np.isfinite(pixel)):
+                claims.append((track, pixel))
         result = []
         for det in detections:
-            owners = []
-            for track in live:
-                if track.hue_label != det.hue_label:
-                    continue
-                predicted, gap = self._predict(track, frame)
-                if gap > 3:
-                    continue
-                pixel = project(camera, np.array([predicted[0], predicted[1], self.object_size]))
-                if not np.all(np.isfinite(pixel)):
-                    continue
-                inside = (det.xs.min() - 3 <= pixel[0] <= det.xs.max() + 3) and (det.ys.min() - 3 <= pixel[1] <= det.ys.max() + 3)
-                if inside:
-                    owners.append((track, pixel))
+            left, right, top, bottom = det.xs.min() - 3, det.xs.max() + 3, det.ys.min() - 3, det.ys.max() + 3
+            owners = [(track, pixel) for track, pixel in claims
+                      if track.hue_label == det.hue_label and left <= pixel[0] <= right and top <= pixel[1] <= bottom]
             if len(owners) < 2:
                 result.append(det)
                 continue
-            usual = max(np.median([d.area for d in t.detections.values()][-10:]) for t, _ in owners)
-            if det.area < SPLIT_AREA_FACTOR * usual:
+            usual = sorted((float(np.median([d.area for d in t.detections.values()][-10:])) for t, _ in owners), reverse=True)
+            if det.area < usual[0] + SPLIT_SECOND_AREA * usual[1]:
                 result.append(det)
                 continue
             result.extend(_kmeans_split(det, np.array([p for _, p in owners])))

@@ -26,6 +26,7 @@ def read_video(path: str | Path, *, max_frames: int | None = None) -> tuple[np.n
             if not container.streams.video:
                 raise ValueError(f"video: {path} has no video stream")
             stream = container.streams.video[0]
+            stream.thread_type = "AUTO"  # frame-parallel decoding: less wall time on a multi-core machine, same output
             rate = float(stream.average_rate) if stream.average_rate else 25.0
             for frame in container.decode(video=0):
                 frames.append(frame.to_ndarray(format="rgb24"))

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from synth.looks import DEFAULT_LOOK, CameraLook, Look
-from world.camera import backproject_to_height, project_with_depth  # the one owner of the pinhole model
+from world.camera import backproject_to_height, centre_in_view  # the one owner of the pinhole model
 from world.types import CLEVR_PALETTE_RGB, COLORS, MATERIALS, SHAPE_KINDS, Camera
 
 # --- fixed scene constants -------------------------------------------------
@@ -156,14 +156,7 @@ def camera_fovy_deg(camera: Camera) -> float:
 
 def inside_view(camera: Camera, points: np.ndarray) -> np.ndarray:
     """(M,) bool: the point (object centre) projects inside the image, in front of the camera."""
-    pixels, depth = project_with_depth(camera, points)
-    return (
-        (depth > 0)
-        & (pixels[:, 0] >= -0.5)
-        & (pixels[:, 0] <= camera.width - 0.5)
-        & (pixels[:, 1] >= -0.5)
-        & (pixels[:, 1] <= camera.height - 0.5)
-    )
+    return centre_in_view(camera, points)
 
 
 def camera_from_pose(distance: float, tilt_deg: float, yaw_deg: float, fovy_deg: float, target: np.ndarray) -> Camera:

@@ -85,6 +85,15 @@ def footprint_outline(shape: Shape, positions: np.ndarray, yaw: np.ndarray) -> n
     return np.stack([x, y, np.zeros_like(x)], axis=-1)
 
 
+def centre_in_view(camera: Camera, points: np.ndarray) -> np.ndarray:
+    """(M,) bool: each (M, 3) point (an object centre, m) projects inside the image, in front of the camera.
+    The generator's ``inside_camera_view`` (CLEVRER in/out events) and perception's ``visible`` follow this rule."""
+    pixels, depth = project_with_depth(camera, points)
+    with np.errstate(invalid="ignore"):
+        return (depth > 0) & (pixels[:, 0] >= -0.5) & (pixels[:, 0] <= camera.width - 0.5) \
+            & (pixels[:, 1] >= -0.5) & (pixels[:, 1] <= camera.height - 0.5)
+
+
 def footprint_visible(camera: Camera, shape: Shape, positions: np.ndarray, yaw: np.ndarray) -> np.ndarray:
     """(T,) bool: some footprint point of the body projects inside the image, in front of the camera."""
     pixels, depth = project_with_depth(camera, footprint_outline(shape, positions, yaw))

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from perception.pipeline import _associate
+from dataclasses import replace
+
+from perception.pipeline import _associate, _palette_appearance
 from perception.types import Attributes, LiftedTrack
 
 SIZE = 0.2
@@ -48,3 +50,42 @@ def test_each_tracklet_continues_at_most_one_other():
     c = _tracklet(2, range(75, 128), (0.02 * 75, 0.0), (0.02, 0.0))
     (chain,) = _associate([c, a, b], SIZE)
     assert len(chain.frames) == 30 + 35 + 53 and np.all(np.diff(chain.frames) > 0)
+
+
+def test_a_colour_reread_after_a_contact_still_joins_but_another_colour_does_not():
+    before = _tracklet(0, range(0, 50), (0.0, 0.0), (0.02, 0.0), color="red", score=0.95)  # the better fit keeps its colour
+    reread = _tracklet(1, range(53, 128), (0.02 * 53, 0.0), (0.02, 0.0), color="brown")
+    appearance = {0: _palette_appearance("red"), 1: _palette_appearance("brown")}
+    (joined,) = _associate([before, reread], SIZE, appearance)
+    assert joined.attributes.color == "red" and len(joined.frames) == 50 + 75
+    appearance[1] = _palette_appearance("blue")
+    assert len(_associate([before, replace(reread, attributes=replace(reread.attributes, color="blue"))], SIZE, appearance)) == 2
+
+
+def test_a_resting_object_does_not_reappear_far_away():
+    resting = _tracklet(0, range(0, 50), (0.0, 0.0), (0.0, 0.0))
+    elsewhere_resting = _tracklet(1, range(60, 128), (0.6, 0.0), (0.0, 0.0))  # inside the 0.65 m prediction gate, but nothing moved
+    assert len(_associate([resting, elsewhere_resting], SIZE)) == 2
+    hit_away = _tracklet(2, range(60, 128), (0.6, 0.0), (0.05, 0.0))  # leaves fast: it could have covered the jump
+    assert len(_associate([resting, hit_away], SIZE)) == 1
+
+
+def test_ends_are_assigned_globally_not_cheapest_first():
+    # a's cheapest continuation is c, but then b has none; the global assignment gives a->d? no: a->c, b->d
+    # only when both are possible; here a can continue c or d and b only c, so a must take d.
+    a = _tracklet(0, range(0, 40), (0.0, 0.0), (0.02, 0.0))
+    b = _tracklet(1, range(0, 40), (0.0, 1.0), (0.02, -0.02))
+    c = _tracklet(2, range(45, 128), (0.02 * 45, 0.1), (0.02, 0.0))
+    d = _tracklet(3, range(45, 128), (0.02 * 45 + 0.3, -0.15), (0.02, 0.0))
+    joined = _associate([a, b, c, d], SIZE)
+    assert len(joined) == 2
+    starts = sorted((tuple(np.round(t.positions[0, :2], 2)), tuple(np.round(t.positions[-1, :2], 2))) for t in joined)
+    assert starts[0][0] == (0.0, 0.0) and abs(starts[0][1][1] - (-0.15)) < 1e-6  # a -> d
+    assert starts[1][0] == (0.0, 1.0) and abs(starts[1][1][1] - 0.1) < 1e-6  # b -> c
+
+
+def test_duplicates_of_one_object_join_whatever_each_was_read_as():
+    whole = _tracklet(0, range(0, 128), (0.0, 0.0), (0.01, 0.0), color="red", shape="cylinder", score=0.99)
+    dark_piece = _tracklet(1, range(20, 128), (0.2 + 0.05, 0.02), (0.01, 0.0), color="brown", shape="sphere", score=0.9)
+    (merged,) = _associate([dark_piece, whole], SIZE)
+    assert merged.attributes.color == "red" and merged.attributes.shape == "cylinder" and len(merged.frames) == 128

@@ -65,3 +65,25 @@ def test_unseen_scene_lifting_within_two_centimetres(unseen_scene):
                 errors.append(np.linalg.norm(position[:2] - truth[(int(frame), object_id)][:2]))
     assert len(errors) > 100
     assert np.median(errors) <= 0.02, f"median lifting error {np.median(errors) * 100:.2f} cm"
+
+
+@pytest.mark.slow
+def test_unseen_scene_entry_and_exit_frames_within_two_frames(unseen_scene):
+    camera, observations, lifted, masks, annotation = unseen_scene
+    num_frames = observations.num_frames
+    in_view: dict[int, np.ndarray] = {}
+    for entry in annotation["motion_trajectory"]:
+        for o in entry["objects"]:
+            if entry["frame_id"] < num_frames:
+                in_view.setdefault(o["object_id"], np.zeros(num_frames, bool))[entry["frame_id"]] = o["inside_camera_view"]
+    events = 0
+    for object_id, seq in _covering(camera, lifted, masks).items():
+        track = observations.object(max(set(seq) - {-1}, key=seq.count))
+        ours = np.zeros(num_frames, bool)
+        ours[track.frames[track.visible]] = True
+        truth = in_view[object_id]
+        for true_frame, our_frame in ((np.argmax(truth), np.argmax(ours)), (num_frames - np.argmax(truth[::-1]), num_frames - np.argmax(ours[::-1]))):
+            if 0 < true_frame < num_frames:
+                events += 1
+                assert abs(int(our_frame) - int(true_frame)) <= 2, f"object {object_id}: perceived {our_frame}, true {true_frame}"
+    assert events, "the generated scene has an object entering or leaving the view"

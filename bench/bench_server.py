@@ -48,6 +48,7 @@ from urllib.parse import urlparse
 
 from tqdm import tqdm
 
+from bench.proc_tree import descendants, is_alive
 from world.camera import look_at_camera
 from world.io import world_to_dict
 from world.types import Body, BodyState, Shape, World
@@ -222,31 +223,6 @@ def mix_load(url: str, tools: str, clients: int, duration: float, api_key: str |
             "healthz_max": max(health_ms) if health_ms else float("nan"), "healthz_n": len(health_ms)}
 
 
-def _descendants(pid: int) -> list[int]:
-    """Every process below ``pid``, from /proc (Linux)."""
-    parents: dict[int, int] = {}
-    for status in Path("/proc").glob("[0-9]*/status"):
-        try:
-            fields = dict(line.split(":\t", 1) for line in status.read_text().splitlines() if ":\t" in line)
-            parents[int(status.parent.name)] = int(fields.get("PPid", "0").strip())
-        except (OSError, ValueError):
-            continue
-    found, frontier = [], [pid]
-    while frontier:
-        current = frontier.pop()
-        children = [p for p, parent in parents.items() if parent == current]
-        found += children
-        frontier += children
-    return found
-
-
-def _alive(pid: int) -> bool:
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except (OSError, IndexError):
-        return False
-
-
 def kill_rounds(rounds: int, clients: int, duration: float, workers: int | None) -> dict:
     """``rounds`` x (writers for ``duration`` s, then SIGKILL); then every acknowledged write is checked."""
     import sqlite3
@@ -285,7 +261,7 @@ def kill_rounds(rounds: int, clients: int, duration: float, workers: int | None)
                 thread.start()
             try:
                 time.sleep(duration)
-                processes = _descendants(process.pid)
+                processes = descendants(process.pid)
             finally:
                 process.kill()  # SIGKILL: no clean-up runs in the server
                 process.wait()
@@ -293,9 +269,9 @@ def kill_rounds(rounds: int, clients: int, duration: float, workers: int | None)
             for thread in threads:
                 thread.join()
             deadline = time.monotonic() + 10
-            while time.monotonic() < deadline and any(_alive(p) for p in processes):
+            while time.monotonic() < deadline and any(is_alive(p) for p in processes):
                 time.sleep(0.2)
-            orphans += sum(_alive(p) for p in processes)
+            orphans += sum(is_alive(p) for p in processes)
             print(f"round {round_index + 1}: killed after {duration:g} s; acknowledged so far: {len(worlds)} worlds, "
                   f"{len(rollouts)} rollouts", file=sys.stderr)
         process, url = start_server(data_dir, workers=workers)

@@ -11,6 +11,7 @@ from pathlib import Path
 import jsonschema
 import pytest
 
+from bench.proc_tree import descendants, is_alive
 from schemas import read_schema
 from server.builds import BuildJobs
 from server.contract import response_schema
@@ -152,32 +153,6 @@ def test_jobs_a_stopped_server_left_unfinished_are_failed_on_start(tmp_path):
     store.close()
 
 
-def _descendants(pid: int) -> list[int]:
-    """Every process below ``pid`` (children, their children, ...), from /proc (Linux)."""
-    parents: dict[int, int] = {}
-    for status in Path("/proc").glob("[0-9]*/status"):
-        try:
-            fields = dict(line.split(":\t", 1) for line in status.read_text().splitlines() if ":\t" in line)
-            parents[int(status.parent.name)] = int(fields.get("PPid", "0").strip())
-        except (OSError, ValueError):
-            continue
-    found, frontier = [], [pid]
-    while frontier:
-        parent = frontier.pop()
-        children = [p for p, pp in parents.items() if pp == parent]
-        found += children
-        frontier += children
-    return found
-
-
-def _alive(pid: int) -> bool:
-    try:
-        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
-    except (OSError, IndexError):
-        return False
-    return state != "Z"  # a zombie has exited; only its parent's wait is missing
-
-
 def _kill_9_during_a_build(tmp_path, server_factory, extra_args: tuple[str, ...], expected_processes: int,
                            check_restart: bool) -> None:
     # a generous start-up time: a LocalCluster starts its worker processes before the server answers
@@ -188,16 +163,16 @@ def _kill_9_during_a_build(tmp_path, server_factory, extra_args: tuple[str, ...]
         assert accepted.status_code == 202, accepted.text
         build_id = accepted.json()["build_id"]
     deadline = time.monotonic() + 60
-    while len(_descendants(server.process.pid)) < expected_processes and time.monotonic() < deadline:
+    while len(descendants(server.process.pid)) < expected_processes and time.monotonic() < deadline:
         time.sleep(0.2)
-    processes = _descendants(server.process.pid)
+    processes = descendants(server.process.pid)
     assert len(processes) >= expected_processes, processes
     os.kill(server.process.pid, signal.SIGKILL)
     server.process.wait(10)
     deadline = time.monotonic() + 15
-    while time.monotonic() < deadline and any(_alive(pid) for pid in processes):
+    while time.monotonic() < deadline and any(is_alive(pid) for pid in processes):
         time.sleep(0.2)
-    assert not [pid for pid in processes if _alive(pid)], "processes outlived the killed server"
+    assert not [pid for pid in processes if is_alive(pid)], "processes outlived the killed server"
     if not check_restart:
         return
     # the job the dead server was running is reported, not lost

@@ -10,9 +10,12 @@
   frames (material_cues): the white light added on top of the paint's own
   chromaticity (90th percentile, relative to the brightness of the floor
   seen around the object in that frame), how desaturated the body is against
-  the paint, and the body's brightness against the floor and the paint. A
-  logistic rule on them (METAL_WEIGHTS, fitted on the generator's ``tune``
-  looks only; docs/perception.md) says metal or rubber.
+  the paint, the body's brightness against the floor and the paint, and the
+  peak of the white light against the body's own lit level (no floor in it).
+  A logistic rule per shape on them (METAL_WEIGHTS, fitted on the generator's
+  ``tune`` looks only; docs/perception.md) says metal or rubber. Spheres have
+  their own weights: a sphere always shows its highlight peak, so the peak
+  carries weight there; flat cube faces and cylinder sides often show none.
 """
 
 from __future__ import annotations
@@ -29,12 +32,17 @@ from world.types import CLEVR_PALETTE_RGB, COLORS
 EDGE_PX = 2  # object pixels this close to the segment's edge are left out (they blend with the floor)
 FLOOR_RING_PX = (3, 12)  # floor pixels between these distances (px) from the segment give its illumination
 MIN_CUE_PIXELS = 20  # fewer interior or floor pixels: the frame gives no material cue
+PEAK_FRACTION = 50  # the highlight peak is the mean of the brightest 1/PEAK_FRACTION of the white light (>= 3 pixels)
 FLOOR_LEVEL_PERCENTILE = 75  # of the ring's brightness: the lit floor next to the object, above its shadow
 GREY_PAINT_RATIO = 0.75  # paint min/max channel ratio above which the paint has no chromaticity to compare with
-# Logistic rule, P(metal) = sigmoid(bias + sum w_k cue_k), fitted on the tune looks only
-# (physmind synth --looks tune --seed 7101, 24 scenes, 172 tracklets; leave-one-scene-out accuracy 0.90).
-METAL_WEIGHTS = {"specular": 20.43, "desaturation": -2.61, "log_body": -4.77}
-METAL_BIAS = -1.43
+# Logistic rule per shape, P(metal) = sigmoid(bias + sum w_k cue_k), fitted on the tune looks only
+# (physmind synth --looks tune --seed 7101, 24 scenes). Cubes and cylinders: one rule fitted on all
+# 172 tracklets (leave-one-scene-out accuracy 0.90); spheres: their own rule on the 50 sphere
+# tracklets with 3 or more frames (leave-one-scene-out 48/50).
+_FLAT_WEIGHTS = {"specular": 20.43, "desaturation": -2.61, "log_body": -4.77, "peak": 0.0}
+METAL_WEIGHTS = {"cube": _FLAT_WEIGHTS, "cylinder": _FLAT_WEIGHTS,
+                 "sphere": {"specular": 8.557, "desaturation": 10.107, "log_body": -6.146, "peak": 0.858}}
+METAL_BIAS = {"cube": -1.43, "cylinder": -1.43, "sphere": 1.223}
 
 
 def color_of(detections: list[Detection], frames: np.ndarray) -> str:
@@ -68,8 +76,8 @@ def _interior_and_floor(detection: Detection, labels: np.ndarray) -> tuple[tuple
     return (iy + top, ix + left), (ry + top, rx + left)
 
 
-def frame_material_cues(pixels: np.ndarray, floor: np.ndarray, color: str) -> tuple[float, float, float] | None:
-    """(specular, desaturation, log_body) of one frame, or None without enough pixels.
+def frame_material_cues(pixels: np.ndarray, floor: np.ndarray, color: str) -> tuple[float, float, float, float] | None:
+    """(specular, desaturation, log_body, peak) of one frame, or None without enough pixels.
 
     pixels: (P, 3) uint8 RGB of the object's interior; floor: (Q, 3) of the
     floor around it; color: the object's colour name (its paint is known).
@@ -77,7 +85,9 @@ def frame_material_cues(pixels: np.ndarray, floor: np.ndarray, color: str) -> tu
     w = (min - r max) / (1 - r) with r the paint's min/max channel ratio,
     independent of the shading. specular: 90th percentile of w over the
     floor's lit brightness; desaturation: median min/max ratio minus r;
-    log_body: log of the median max channel over floor brightness x paint max.
+    log_body: log of the median max channel over floor brightness x paint max;
+    peak: log of the mean of the brightest 1/PEAK_FRACTION of w over the body's
+    lit level (median max channel over paint max, grey levels).
     Grey paint (r near 1) has no chromaticity: w is the excess over the median brightness.
     """
     if len(pixels) < MIN_CUE_PIXELS or len(floor) < MIN_CUE_PIXELS:
@@ -91,10 +101,14 @@ def frame_material_cues(pixels: np.ndarray, floor: np.ndarray, color: str) -> tu
         white = (low - paint_ratio * high) / (1.0 - paint_ratio)
     else:
         white = high - np.median(high)
-    specular = float(np.percentile(np.clip(white, 0.0, None), 90)) / floor_level
+    white = np.clip(white, 0.0, None)
+    specular = float(np.percentile(white, 90)) / floor_level
     desaturation = float(np.percentile(low / np.maximum(high, 1.0), 90)) - paint_ratio
-    log_body = float(np.log(max(float(np.median(high)) / floor_level / (paint.max() / 255.0), 1e-3)))
-    return specular, desaturation, log_body
+    body_level = float(np.median(high)) / (paint.max() / 255.0)
+    log_body = float(np.log(max(body_level / floor_level, 1e-3)))
+    top = np.sort(white)[-max(3, len(white) // PEAK_FRACTION):]
+    peak = float(np.log(max(float(top.mean()), 1.0) / max(body_level, 1.0)))
+    return specular, desaturation, log_body, peak
 
 
 def material_cues(detections: list[Detection], frames: np.ndarray, segments: list[FrameSegments], color: str) -> MaterialCues:
@@ -106,22 +120,24 @@ def material_cues(detections: list[Detection], frames: np.ndarray, segments: lis
         if cues is not None:
             per_frame.append(cues)
     if not per_frame:
-        return MaterialCues(specular=0.0, desaturation=0.0, log_body=0.0, frames=0)
-    specular, desaturation, log_body = np.median(np.asarray(per_frame), axis=0)
-    return MaterialCues(specular=float(specular), desaturation=float(desaturation), log_body=float(log_body), frames=len(per_frame))
+        return MaterialCues(specular=0.0, desaturation=0.0, log_body=0.0, peak=0.0, frames=0)
+    specular, desaturation, log_body, peak = np.median(np.asarray(per_frame), axis=0)
+    return MaterialCues(specular=float(specular), desaturation=float(desaturation), log_body=float(log_body),
+                        peak=float(peak), frames=len(per_frame))
 
 
-def metal_probability(cues: MaterialCues) -> float:
-    """P(metal) of the logistic rule; 0.5 when no frame gave cues."""
+def metal_probability(cues: MaterialCues, shape: str) -> float:
+    """P(metal) of the shape's logistic rule; 0.5 when no frame gave cues."""
     if cues.frames == 0:
         return 0.5
-    z = METAL_BIAS + sum(weight * getattr(cues, name) for name, weight in METAL_WEIGHTS.items())
+    z = METAL_BIAS[shape] + sum(weight * getattr(cues, name) for name, weight in METAL_WEIGHTS[shape].items())
     return float(1.0 / (1.0 + np.exp(-z)))
 
 
-def material_of(detections: list[Detection], frames: np.ndarray, segments: list[FrameSegments], color: str) -> tuple[str, float]:
-    """(material, P(metal)) decided over the detections' frames."""
-    probability = metal_probability(material_cues(detections, frames, segments, color))
+def material_of(detections: list[Detection], frames: np.ndarray, segments: list[FrameSegments], color: str,
+                shape: str) -> tuple[str, float]:
+    """(material, P(metal)) decided over the detections' frames with the rule of ``shape`` (a SHAPE_KINDS name)."""
+    probability = metal_probability(material_cues(detections, frames, segments, color), shape)
     return ("metal" if probability > 0.5 else "rubber"), probability
 
 

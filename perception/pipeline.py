@@ -96,7 +96,7 @@ class PrimitiveLifter:
             appearance = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
             detections = [track.detections[f] for f in appearance]
             color = color_of(detections, frames)
-            material, metal_probability = material_of(detections, frames, segments, color)
+            material, metal_probability = material_of(detections, frames, segments, color, kind)
             attributes = Attributes(color=color, shape=kind, material=material, confidence=float(np.clip(margin * 5, 0, 1)),
                                     metal_probability=metal_probability, shape_score=shape_score)
             frame_ids, positions, yaws, weights = [], [], [], []

@@ -80,19 +80,21 @@ class MaterialCues:
 
     specular: white light added on top of the paint, over the floor's lit brightness (>= 0);
     desaturation: body min/max channel ratio minus the paint's; log_body: log(body brightness
-    over floor brightness x paint's max channel).
+    over floor brightness x paint's max channel); peak: log(brightest white light over the body's
+    own lit level), which needs no floor.
     """
 
     specular: float
     desaturation: float
     log_body: float
+    peak: float
     frames: int
 
     def __post_init__(self):
         if self.frames < 0:
             raise ValueError(f"frames: expected >= 0, got {self.frames!r}")
-        if not all(np.isfinite(v) for v in (self.specular, self.desaturation, self.log_body)):
-            raise ValueError("specular, desaturation, log_body: expected finite values")
+        if not all(np.isfinite(v) for v in (self.specular, self.desaturation, self.log_body, self.peak)):
+            raise ValueError("specular, desaturation, log_body, peak: expected finite values")
 
 
 @dataclass(frozen=True)

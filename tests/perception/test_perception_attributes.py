@@ -34,12 +34,27 @@ def _frame(color: str, body: float, highlight: float, light: float = 1.0, floor:
     return frame[None], [FrameSegments(frame=0, labels=labels, detections=(detection,))], detection
 
 
+@pytest.mark.parametrize("shape", ["sphere", "cube", "cylinder"])
 @pytest.mark.parametrize("color", ["red", "blue", "yellow", "gray", "cyan"])
-def test_matte_and_shiny_objects_are_told_apart(color):
+def test_matte_and_shiny_objects_are_told_apart(color, shape):
     frames, segments, det = _frame(color, body=1.0, highlight=0.0)
-    assert material_of([det], frames, segments, color)[0] == "rubber"
+    assert material_of([det], frames, segments, color, shape)[0] == "rubber"
     frames, segments, det = _frame(color, body=0.7, highlight=150.0)
-    assert material_of([det], frames, segments, color)[0] == "metal"
+    assert material_of([det], frames, segments, color, shape)[0] == "metal"
+
+
+def test_highlight_peak_needs_no_floor():
+    """The peak is measured against the object's own lit level: a brighter floor leaves it unchanged,
+    a stronger highlight raises it."""
+    frames, segments, det = _frame("blue", 0.9, 100.0, floor=110.0)
+    reference = material_cues([det], frames, segments, "blue")
+    frames, segments, det = _frame("blue", 0.9, 100.0, floor=220.0)
+    brighter_floor = material_cues([det], frames, segments, "blue")
+    frames, segments, det = _frame("blue", 0.9, 40.0, floor=110.0)
+    weaker_highlight = material_cues([det], frames, segments, "blue")
+    assert brighter_floor.peak == pytest.approx(reference.peak, abs=0.02)
+    assert brighter_floor.log_body < reference.log_body - 0.5  # the floor-relative cue does move
+    assert weaker_highlight.peak < reference.peak - 0.5
 
 
 @pytest.mark.parametrize("light", [0.55, 1.3])
@@ -54,6 +69,8 @@ def test_cues_follow_the_floor_illumination_not_absolute_brightness(light):
         assert scaled.specular == pytest.approx(reference.specular, abs=0.03)
         assert scaled.log_body == pytest.approx(reference.log_body, abs=0.03)
         assert scaled.desaturation == pytest.approx(reference.desaturation, abs=0.03)
+        if highlight:  # without a highlight the peak is at its floor of 1 grey level
+            assert scaled.peak == pytest.approx(reference.peak, abs=0.05)
 
 
 def test_no_floor_around_the_object_gives_no_cue():
@@ -61,4 +78,4 @@ def test_no_floor_around_the_object_gives_no_cue():
     segments = [FrameSegments(frame=0, labels=np.full(SIZE, OBJECT, dtype=np.uint8), detections=segments[0].detections)]
     cues = material_cues([det], frames, segments, "red")
     assert cues.frames == 0
-    assert material_of([det], frames, segments, "red")[1] == 0.5
+    assert material_of([det], frames, segments, "red", "sphere")[1] == 0.5

@@ -143,7 +143,7 @@ def evaluate_scene(root: Path, index: int, e2e: bool) -> dict:
         attribute_hits["color"].append(track.attributes.color == color)
         attribute_hits["shape"].append(track.attributes.shape == shape)
         attribute_hits["material"].append(track.attributes.material == material)
-        attribute_hits.setdefault("features", []).append((shape, material, track.attributes.shape, track.attributes.highlight_ratio, track.attributes.shape_score))
+        attribute_hits.setdefault("features", []).append((shape, material, track.attributes.shape, track.attributes.metal_probability, track.attributes.shape_score))
     missed_objects = len(true_ids) - len(assigned)
 
     # Entry / exit frames (CLEVRER "in" / "out": first frame in view after frame 0, first frame out of view).

@@ -107,10 +107,10 @@ def write_debug(directory: Path, frames: np.ndarray, lifted: list[LiftedTrack], 
     sheet = directory / "contact_sheet.png"
     write_png(sheet, contact_sheet(frames, lifted, camera, picks))
     summary = directory / "tracks.txt"
-    lines = ["id color shape material first_frame last_frame frames mean_weight shape_score highlight_ratio"]
+    lines = ["id color shape material first_frame last_frame frames mean_weight shape_score metal_probability"]
     for t in lifted:
         a = t.attributes
         lines.append(f"{t.id} {a.color} {a.shape} {a.material} {int(t.frames[0])} {int(t.frames[-1])} {len(t.frames)} "
-                     f"{float(np.mean(t.weights)):.2f} {a.shape_score:.2f} {a.highlight_ratio:.2f}")
+                     f"{float(np.mean(t.weights)):.2f} {a.shape_score:.2f} {a.metal_probability:.2f}")
     summary.write_text("\n".join(lines) + "\n")
     return [sheet, summary]

@@ -28,7 +28,8 @@ from world.camera import backproject_to_height, centre_in_view
 from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
 from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, SHAPE_KINDS, Camera
 
-MAX_ATTRIBUTE_FRAMES = 6  # isolated frames used to decide shape / material
+MAX_ATTRIBUTE_FRAMES = 6  # isolated frames used to decide shape (a fit per frame and primitive)
+MAX_APPEARANCE_FRAMES = 16  # isolated frames used to decide colour / material (cheap per frame)
 MIN_SHAPE_SCORE = 0.4  # mean silhouette overlap below which a track is not an object
 
 # Per-frame confidence: lower where the object is cut by the border, touches
@@ -113,11 +114,12 @@ class PrimitiveLifter:
             kind, margin, shape_score = self.decide_shape(camera, track, segments, basis)
             if shape_score < MIN_SHAPE_SCORE:  # no primitive of the known size explains it: a fragment, not an object
                 continue
-            detections = [track.detections[f] for f in basis]
+            appearance = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
+            detections = [track.detections[f] for f in appearance]
             color = color_of(detections, frames)
-            material, ratio = material_of(detections, frames, kind)
+            material, metal_probability = material_of(detections, frames, segments, color, kind)
             attributes = Attributes(color=color, shape=kind, material=material, confidence=float(np.clip(margin * 5, 0, 1)),
-                                    highlight_ratio=ratio, shape_score=shape_score)
+                                    metal_probability=metal_probability, shape_score=shape_score)
             frame_ids, positions, yaws, weights = [], [], [], []
             previous: Fit | None = None
             reference: Detection | None = None  # the detection the previous fit was computed on

@@ -75,12 +75,35 @@ class TrackState:
 
 
 @dataclass(frozen=True)
+class MaterialCues:
+    """Material evidence of a track (perception.attributes.material_cues), medians over ``frames`` frames.
+
+    specular: white light added on top of the paint, over the floor's lit brightness (>= 0);
+    desaturation: body min/max channel ratio minus the paint's; log_body: log(body brightness
+    over floor brightness x paint's max channel); peak: log(brightest white light over the body's
+    own lit level), which needs no floor.
+    """
+
+    specular: float
+    desaturation: float
+    log_body: float
+    peak: float
+    frames: int
+
+    def __post_init__(self):
+        if self.frames < 0:
+            raise ValueError(f"frames: expected >= 0, got {self.frames!r}")
+        if not all(np.isfinite(v) for v in (self.specular, self.desaturation, self.log_body, self.peak)):
+            raise ValueError("specular, desaturation, log_body, peak: expected finite values")
+
+
+@dataclass(frozen=True)
 class Attributes:
     color: str
     shape: str
     material: str
     confidence: float  # 0..1, how clearly the best shape beat the others
-    highlight_ratio: float = 1.0  # material feature (attributes.highlight_ratio)
+    metal_probability: float = 0.5  # P(metal) of the material rule (perception.attributes.metal_probability)
     shape_score: float = 0.0  # mean silhouette overlap J of the chosen shape on isolated frames
 
 

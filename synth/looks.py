@@ -12,8 +12,13 @@ what real videos vary. Looks come in three families (``physmind synth --looks``)
 ``tune`` and ``heldout`` are disjoint (and both disjoint from ``default``) in
 floor (texture kind and colour range), light set-up (key-light direction and
 intensity, colour tint) and camera (distance, tilt and field of view bands).
+They are also disjoint in how the two materials render (MATERIAL_RANGES:
+metal specular, shininess and how much darker its body colour is than the
+paint; rubber specular and shininess), since other
+renderers define "metal" and "rubber" their own way.
 Shared by both: shadow style (hard, soft, none), h264 crf 18-30, 3-8 objects,
-a share of objects placed partly out of view, camera azimuth jitter.
+a share of objects placed partly out of view, camera azimuth jitter, and a
+slight per-colour shade jitter of the paint (PALETTE_SHADE_JITTER).
 
 Camera ranges span +-25 % around the default's centre (distance 5.5 m, tilt
 45 deg, fov 36 deg), cut into four bands: ``tune`` takes bands 1 and 3,
@@ -34,6 +39,8 @@ from dataclasses import asdict, dataclass
 from importlib import resources
 
 import numpy as np
+
+from world.types import CLEVR_PALETTE_RGB
 
 LOOK_FAMILIES = ("default", "tune", "heldout")
 _FAMILY_CODE = {"default": 0, "tune": 1, "heldout": 2}
@@ -116,6 +123,29 @@ LIGHT_RANGES: dict[str, dict[str, tuple]] = {
         "ambient": (0.20, 0.26),
     },
 }
+# How metal and rubber render, per family (ranges disjoint between families).
+# The default look renders metal with specular 1, shininess 0.7 and its body
+# at 0.62 x the paint; rubber specular and shininess
+# 0.05 (synth.mjcf). ``metal_body``: metal body colour = paint x this factor.
+# MuJoCo's material ``reflectance`` is not varied: with MuJoCo 4.0.0 it changed
+# no pixel of a metal cube, sphere or cylinder (reflections render on planes).
+MATERIAL_RANGES: dict[str, dict[str, tuple[float, float]]] = {
+    "tune": {
+        "metal_specular": (0.50, 0.80),
+        "metal_shininess": (0.30, 0.60),
+        "metal_body": (0.50, 0.80),
+        "rubber_specular": (0.0, 0.07),
+        "rubber_shininess": (0.0, 0.09),
+    },
+    "heldout": {
+        "metal_specular": (0.82, 1.0),
+        "metal_shininess": (0.62, 1.0),
+        "metal_body": (0.82, 1.0),
+        "rubber_specular": (0.08, 0.16),
+        "rubber_shininess": (0.10, 0.25),
+    },
+}
+PALETTE_SHADE_JITTER = 0.06  # each paint channel scaled by 1 +- up to this (both families)
 CRF_RANGE = (18, 30)  # h264 constant rate factor, both families (inclusive)
 OBJECT_COUNT_RANGE = (3, 8)  # both families (inclusive); the default keeps 3-6
 EDGE_SHARE = 0.15  # share of in-view objects placed partly out of view (both families)
@@ -187,6 +217,37 @@ class CameraLook:
 
 
 @dataclass(frozen=True)
+class MaterialLook:
+    """How the two materials render (MuJoCo material attributes, 0..1).
+
+    ``metal_body``: metal's body colour is the paint times this factor.
+    ``paint_shades``: (8, 3) per-colour channel factors, in the order of
+    world.types.CLEVR_PALETTE_RGB, applied to the paint of both materials
+    (results clipped to 1).
+    """
+
+    metal_specular: float
+    metal_shininess: float
+    metal_body: float
+    rubber_specular: float
+    rubber_shininess: float
+    paint_shades: tuple[tuple[float, float, float], ...]
+
+    def __post_init__(self):
+        for name in ("metal_specular", "metal_shininess", "metal_body", "rubber_specular", "rubber_shininess"):
+            value = getattr(self, name)
+            if not 0.0 <= value <= 1.0:
+                raise ValueError(f"{name}: expected a value in [0, 1], got {value!r}")
+        if len(self.paint_shades) != len(CLEVR_PALETTE_RGB) or any(len(s) != 3 or min(s) <= 0 for s in self.paint_shades):
+            raise ValueError(f"paint_shades: expected {len(CLEVR_PALETTE_RGB)} positive (r, g, b) factors")
+
+    def paint(self, color: str) -> tuple[float, float, float]:
+        """Linear 0..1 paint of colour name ``color`` after the shade jitter."""
+        shade = self.paint_shades[list(CLEVR_PALETTE_RGB).index(color)]
+        return tuple(min(c / 255.0 * f, 1.0) for c, f in zip(CLEVR_PALETTE_RGB[color], shade))
+
+
+@dataclass(frozen=True)
 class Look:
     """Everything about a scene's appearance that is not physics.
 
@@ -201,6 +262,7 @@ class Look:
     floor: FloorLook | None = None
     light: LightLook | None = None
     camera: CameraLook | None = None
+    materials: MaterialLook | None = None  # None: the default look's metal and rubber (synth.mjcf)
 
     def __post_init__(self):
         if self.family not in LOOK_FAMILIES:
@@ -212,8 +274,8 @@ class Look:
             raise ValueError(f"object_count: expected 1 <= low <= high, got {self.object_count!r}")
         if not 0.0 <= self.edge_share <= 1.0:
             raise ValueError(f"edge_share: expected [0, 1], got {self.edge_share!r}")
-        if (self.family == "default") != (self.floor is None and self.light is None and self.camera is None):
-            raise ValueError("floor, light, camera: None exactly for the default family")
+        if (self.family == "default") != (self.floor is None and self.light is None and self.camera is None and self.materials is None):
+            raise ValueError("floor, light, camera, materials: None exactly for the default family")
 
 
 DEFAULT_LOOK = Look(family="default", crf=18, object_count=(3, 6), edge_share=0.0)
@@ -268,7 +330,15 @@ def sample_look(rng: np.random.Generator, family: str, camera_target: tuple[floa
         target=(float(camera_target[0] + jitter[0]), float(camera_target[1] + jitter[1]), float(camera_target[2])),
     )
     crf = int(rng.integers(CRF_RANGE[0], CRF_RANGE[1] + 1))
-    return Look(family=family, crf=crf, object_count=OBJECT_COUNT_RANGE, edge_share=EDGE_SHARE, floor=floor, light=light, camera=camera)
+    # Drawn last, so the floor, light and camera of a (seed, index) are those of looks before materials varied.
+    ranges = MATERIAL_RANGES[family]
+    materials = MaterialLook(
+        **{name: float(rng.uniform(*ranges[name])) for name in ranges},
+        paint_shades=tuple(tuple(float(v) for v in rng.uniform(1 - PALETTE_SHADE_JITTER, 1 + PALETTE_SHADE_JITTER, 3))
+                           for _ in CLEVR_PALETTE_RGB),
+    )
+    return Look(family=family, crf=crf, object_count=OBJECT_COUNT_RANGE, edge_share=EDGE_SHARE, floor=floor, light=light,
+                camera=camera, materials=materials)
 
 
 def clevrer_floor_png() -> bytes:
@@ -289,6 +359,8 @@ def look_document(look: Look) -> dict:
         return value
 
     document = rounded(asdict(look))
+    if look.materials is None:
+        del document["materials"]  # the default look's documents stay those of synth-1/synth-2
     if look.light is not None:
         document["light"]["direction"] = rounded(list(look.light.direction))
     if look.camera is not None:

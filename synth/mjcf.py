@@ -27,7 +27,7 @@ from xml.sax.saxutils import quoteattr
 
 import numpy as np
 
-from synth.looks import CLEVRER_FLOOR_FILE, FloorLook, Look, LightLook, clevrer_floor_png
+from synth.looks import CLEVRER_FLOOR_FILE, FloorLook, Look, LightLook, MaterialLook, clevrer_floor_png
 from synth.scene import COLOR_RGB, ObjectSpec, SceneSpec, camera_fovy_deg
 
 TIMESTEP = 0.002  # s; 20 physics steps per 25 fps frame
@@ -95,7 +95,10 @@ def _quat_wxyz_from_yaw(yaw: float) -> tuple[float, float, float, float]:
     return (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
 
 
-def _materials() -> str:
+def _materials(materials: MaterialLook | None = None) -> str:
+    """The <material> elements of every colour x material; None: the default look's."""
+    if materials is not None:
+        return _look_materials(materials)
     rows = []
     for color, (r, g, b) in COLOR_RGB.items():
         rgba = _fmt([r / 255.0, g / 255.0, b / 255.0, 1.0])
@@ -104,6 +107,22 @@ def _materials() -> str:
         dark = _fmt([0.62 * r / 255.0, 0.62 * g / 255.0, 0.62 * b / 255.0, 1.0])
         rows.append(f'<material name="{color}_metal" rgba="{dark}" specular="1" shininess="0.7"/>')
         rows.append(f'<material name="{color}_rubber" rgba="{rgba}" specular="0.05" shininess="0.05"/>')
+    return "\n    ".join(rows)
+
+
+def _look_materials(materials: MaterialLook) -> str:
+    rows = []
+    for color in COLOR_RGB:
+        paint = materials.paint(color)
+        body = _fmt([materials.metal_body * c for c in paint] + [1.0])
+        rows.append(
+            f'<material name="{color}_metal" rgba="{body}" specular="{materials.metal_specular:.9g}" '
+            f'shininess="{materials.metal_shininess:.9g}"/>'
+        )
+        rows.append(
+            f'<material name="{color}_rubber" rgba="{_fmt([*paint, 1.0])}" specular="{materials.rubber_specular:.9g}" '
+            f'shininess="{materials.rubber_shininess:.9g}"/>'
+        )
     return "\n    ".join(rows)
 
 
@@ -251,7 +270,7 @@ def build_mjcf(spec: SceneSpec, removed: int | None = None) -> BuiltModel:
   </visual>
   <asset>
     {look.floor}
-    {_materials()}
+    {_materials(spec.look.materials)}
   </asset>
   <worldbody>
     {look.lights}

@@ -18,6 +18,8 @@ from synth.looks import (
     DEFAULT_LOOK,
     FloorLook,
     LOOK_FAMILIES,
+    MATERIAL_RANGES,
+    PALETTE_SHADE_JITTER,
     camera_bands,
     look_document,
     look_seed_sequence,
@@ -184,6 +186,45 @@ def test_families_are_disjoint_in_floor_light_and_camera():
         assert min(crfs) == 18 and max(crfs) == 30
 
 
+@pytest.mark.parametrize(
+    "material, values",
+    [
+        ("metal", {"metal_specular": 0.0}),
+        ("metal", {"metal_shininess": 0.0}),
+        ("metal", {"metal_body": 1.0}),
+        ("rubber", {"rubber_specular": 0.9}),
+        ("rubber", {"rubber_shininess": 1.0, "rubber_specular": 0.5}),
+        ("rubber", {"paint_shades": ((0.7, 0.7, 0.7),) * 8}),
+    ],
+)
+def test_each_material_parameter_changes_the_render(base_spec, material, values):
+    objects = tuple(dataclasses.replace(o, material=material) for o in base_spec.objects)
+    spec = dataclasses.replace(base_spec, objects=objects)
+    changed = _with(spec, materials=values)
+    if changed.look == spec.look:
+        pytest.fail(f"{values}: the test's base look already has these values")
+    difference = np.abs(_first_frame(changed) - _first_frame(spec))
+    assert (difference > 10).sum() > 30, (material, values, (difference > 10).sum())
+
+
+def test_families_are_disjoint_in_how_materials_render():
+    tune, heldout = _looks("tune"), _looks("heldout")
+    for name in MATERIAL_RANGES["tune"]:
+        a = [getattr(look.materials, name) for look in tune]
+        b = [getattr(look.materials, name) for look in heldout]
+        assert max(a) < min(b) or max(b) < min(a), name
+    # The default look's metal (specular 1, shininess 0.7, body 0.62) is in neither tune's ranges ...
+    assert not MATERIAL_RANGES["tune"]["metal_specular"][0] <= 1.0 <= MATERIAL_RANGES["tune"]["metal_specular"][1]
+    assert not MATERIAL_RANGES["heldout"]["metal_body"][0] <= 0.62 <= MATERIAL_RANGES["heldout"]["metal_body"][1]
+    # ... and metal is still the shinier material in every look.
+    for look in tune + heldout:
+        m = look.materials
+        assert m.metal_specular > m.rubber_specular and m.metal_shininess > m.rubber_shininess
+        shades = np.array(m.paint_shades)
+        assert np.all(np.abs(shades - 1.0) <= PALETTE_SHADE_JITTER) and np.ptp(shades) > 0
+    assert DEFAULT_LOOK.materials is None and "materials" not in look_document(DEFAULT_LOOK)
+
+
 def test_object_count_and_partly_visible_objects():
     counts, edge_objects = set(), 0
     for i in range(40):
@@ -208,6 +249,7 @@ def test_look_document_round_trips_as_json():
         if family != "default":
             assert set(document["camera"]) >= {"distance", "height", "tilt_deg", "fovy_deg"}
             assert document["light"]["shadows"] in ("hard", "soft", "none")
+            assert 0.0 <= document["materials"]["metal_specular"] <= 1.0
 
 
 def test_cli_rejects_an_unknown_look_family(capsys):

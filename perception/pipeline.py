@@ -114,8 +114,8 @@ class PrimitiveLifter:
             kind, margin, shape_score = self.decide_shape(camera, track, segments, basis)
             if shape_score < MIN_SHAPE_SCORE:  # no primitive of the known size explains it: a fragment, not an object
                 continue
-            appearance = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
-            detections = [track.detections[f] for f in appearance]
+            appearance_frames = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
+            detections = [track.detections[f] for f in appearance_frames]
             color = color_of(detections, frames)
             material, metal_probability = material_of(detections, frames, segments, color, kind)
             attributes = Attributes(color=color, shape=kind, material=material, confidence=float(np.clip(margin * 5, 0, 1)),

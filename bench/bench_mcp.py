@@ -27,6 +27,7 @@ from mcp import Client
 from mcp.client.stdio import StdioServerParameters
 
 from bench.bench_server import connect, percentile, request, six_object_world_document, start_server
+from physmind.local_server import stop_process
 
 REPO = Path(__file__).resolve().parents[1]
 ARGS = {"object_a": 0, "object_b": 1}
@@ -97,8 +98,7 @@ def main(argv: list[str] | None = None) -> int:
                     _row("MCP Streamable HTTP, SDK `Client.call_tool`",
                          asyncio.run(sdk_samples(url + "/mcp", world_id, None, args.count)))]
         finally:
-            process.terminate()
-            process.wait(timeout=15)
+            stop_process(process)
         env = {k: v for k, v in os.environ.items() if not k.startswith("PHYSMIND_")}
         stdio = StdioServerParameters(command=sys.executable, args=["-m", "physmind.cli", "mcp", "--data-dir", tmp + "/stdio"],
                                       env=env, cwd=str(REPO))

@@ -49,6 +49,7 @@ from urllib.parse import urlparse
 from tqdm import tqdm
 
 from bench.proc_tree import descendants, is_alive
+from physmind.local_server import stop_process
 from world.camera import look_at_camera
 from world.io import world_to_dict
 from world.types import Body, BodyState, Shape, World
@@ -289,8 +290,7 @@ def kill_rounds(rounds: int, clients: int, duration: float, workers: int | None)
                 elif status != 200 or json.loads(body)["rollout"]["id"] != rollout_id:
                     corrupt += 1
         finally:
-            process.terminate()
-            process.wait(timeout=15)
+            stop_process(process)
         with sqlite3.connect(Path(data_dir) / "physmind.sqlite3") as db:
             integrity = db.execute("PRAGMA integrity_check").fetchone()[0]
     return {"worlds": len(worlds), "rollouts": len(rollouts), "lost": lost, "corrupt": corrupt,
@@ -366,11 +366,7 @@ def main(argv: list[str] | None = None) -> int:
                   f"{thr['rps']:.0f} | {thr['requests']} | {thr['errors']} |")
     finally:
         if process is not None:
-            process.terminate()
-            try:
-                process.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                process.kill()
+            stop_process(process)
         tmp.cleanup()
     return 0
 

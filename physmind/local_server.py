@@ -78,10 +78,16 @@ def loopback_process(command: Sequence[str], env: Mapping[str, str], log_file: P
             time.sleep(poll_seconds)
         yield process
     finally:
-        if process.poll() is None:
-            process.terminate()
-            try:
-                process.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                process.kill()
-                process.wait(timeout=5)
+        stop_process(process)
+
+
+def stop_process(process: subprocess.Popen, grace_seconds: float = 15.0) -> None:
+    """Stop a child process: SIGTERM, then SIGKILL if it has not exited within ``grace_seconds``."""
+    if process.poll() is not None:
+        return
+    process.terminate()
+    try:
+        process.wait(timeout=grace_seconds)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait(timeout=5)

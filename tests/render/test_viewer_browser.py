@@ -21,6 +21,7 @@ import httpx
 import pytest
 from PIL import Image
 
+from physmind.local_server import stop_process
 from world.io import world_to_dict
 
 REPO = Path(__file__).resolve().parents[2]
@@ -69,11 +70,7 @@ def live_server(tmp_path):
             time.sleep(0.2)
         yield url
     finally:
-        process.terminate()
-        try:
-            process.wait(timeout=15)
-        except subprocess.TimeoutExpired:
-            process.kill()
+        stop_process(process)
         log.close()
 
 

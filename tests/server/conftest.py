@@ -13,6 +13,7 @@ from pathlib import Path
 import httpx
 import pytest
 
+from physmind.local_server import stop_process
 from world.io import world_to_dict
 
 REPO = Path(__file__).resolve().parents[2]
@@ -41,13 +42,7 @@ class ServerProcess:
         return self.log_path.read_text().splitlines()
 
     def stop(self) -> None:
-        if self.process.poll() is None:
-            self.process.terminate()
-            try:
-                self.process.wait(timeout=15)
-            except subprocess.TimeoutExpired:
-                self.process.kill()
-                self.process.wait(timeout=5)
+        stop_process(self.process)
 
 
 def start_server(data_dir: Path, log_path: Path, env_extra: dict[str, str] | None = None, timeout: float = 60.0,

@@ -14,8 +14,8 @@ from __future__ import annotations
 import argparse
 import multiprocessing
 import os
-from concurrent.futures import Executor, Future, ProcessPoolExecutor
-from typing import Any, Callable
+from concurrent.futures import Executor, Future, ProcessPoolExecutor, as_completed
+from typing import Any, Callable, Iterator, Sequence
 
 from server.workers import start_parent_watch
 
@@ -86,3 +86,24 @@ def open_executor(address: str | None, workers: int) -> Executor:
     if workers < 1:
         raise ValueError(f"workers: expected >= 1, got {workers}")
     return process_pool(workers) if address is None else dask_executor(check_dask_address(address), workers)
+
+
+def run_jobs(fn: Callable, jobs: Sequence[tuple], workers: int = 1,
+             dask: str | None = None) -> Iterator[tuple[int, Any, Exception | None]]:
+    """``(position in jobs, fn(*job) or None, the exception it raised or None)`` for every job, as each
+    finishes: in this process when ``workers`` <= 1 and no ``dask`` address is given, else on
+    ``open_executor(dask, workers)``. A failing job does not stop the others."""
+    if workers <= 1 and dask is None:
+        for position, job in enumerate(jobs):
+            try:
+                yield position, fn(*job), None
+            except Exception as error:  # reported to the caller with its job
+                yield position, None, error
+        return
+    with open_executor(dask, max(1, workers)) as executor:
+        futures = {executor.submit(fn, *job): position for position, job in enumerate(jobs)}
+        for future in as_completed(futures):
+            try:
+                yield futures[future], future.result(), None
+            except Exception as error:
+                yield futures[future], None, error

@@ -28,7 +28,7 @@ from typing import Any, Iterator
 
 from tqdm import tqdm
 
-from physmind.executors import open_executor
+from physmind.executors import run_jobs
 from physmind.local_server import local_server
 from planner.client import ToolCallError, ToolClient
 from world.io import read_json_file
@@ -140,26 +140,16 @@ def fit_trial(directory: Path, trial: dict[str, Any], cache: Path | None = None)
     return FittedTrial(index, category, trial.get("label"), trial.get("question"), document, None, time.perf_counter() - started)
 
 
-def _fit_job(job: tuple[Path, dict[str, Any], Path | None]) -> FittedTrial:
-    return fit_trial(*job)
-
-
 def fit_trials(directory: Path, trials: list[dict[str, Any]], workers: int = 1, cache: Path | None = None,
-               progress: bool = False, dask: str | None = None) -> Iterator[FittedTrial]:
-    """Fitted worlds in trial order: in this process, ``workers`` > 1 local processes, or on Dask
-    (``dask``: 'local' or a scheduler address; physmind/executors.py)."""
-    jobs = [(directory, trial, cache) for trial in trials]
-    bar = tqdm(total=len(jobs), desc="physion fit", unit="trial", disable=not progress)
-    if workers <= 1 and dask is None:
-        for job in jobs:
-            yield _fit_job(job)
+               progress: bool = False, dask: str | None = None) -> Iterator[tuple[int, FittedTrial]]:
+    """(position in ``trials``, fitted world) as each fit finishes: in this process, ``workers`` > 1 local
+    processes, or on Dask (``dask``: 'local' or a scheduler address; physmind/executors.py)."""
+    with tqdm(total=len(trials), desc="physion fit", unit="trial", disable=not progress) as bar:
+        for position, fitted, error in run_jobs(fit_trial, [(directory, trial, cache) for trial in trials], workers, dask):
+            if error is not None:
+                raise error
+            yield position, fitted
             bar.update()
-    else:
-        with open_executor(dask, max(1, workers)) as executor:
-            for fitted in executor.map(_fit_job, jobs):
-                yield fitted
-                bar.update()
-    bar.close()
 
 
 def ground_roles(summary: dict[str, Any], roles: tuple[str, str]) -> tuple[int, int]:
@@ -205,7 +195,9 @@ def evaluate_trials(directory: Path, trials: list[dict[str, Any]], server_url: s
                     cache: Path | None = None, progress: bool = False, dask: str | None = None) -> list[TrialRecord]:
     """Every trial fitted (``workers`` processes) and answered through the tools of the server at ``server_url``."""
     with ToolClient(server_url) as client:
-        return [answer_trial(client, fitted) for fitted in fit_trials(directory, trials, workers, cache, progress, dask)]
+        answered = {position: answer_trial(client, fitted)
+                    for position, fitted in fit_trials(directory, trials, workers, cache, progress, dask)}
+    return [answered[position] for position in range(len(trials))]
 
 
 def accuracy_table(records: list[TrialRecord]) -> dict[str, tuple[int, int]]:

@@ -17,7 +17,6 @@ from __future__ import annotations
 import json
 import tempfile
 import time
-from concurrent.futures import as_completed
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal, Sequence
@@ -25,7 +24,7 @@ from typing import Any, Literal, Sequence
 from tqdm import tqdm
 
 from perception.pipeline import perceive
-from physmind.executors import open_executor
+from physmind.executors import run_jobs
 from planner.evaluate import VideoEntry
 from world.identify.fit import identify
 from world.io import camera_from_dict, world_to_dict
@@ -138,22 +137,11 @@ def build_worlds(entries: Sequence[VideoEntry], source: str, workers: int = 1, c
             (Path(cache_dir) / f"build_{index:05d}.json").write_text(json.dumps(info))
 
     bar = tqdm(total=len(todo), desc=f"build ({source})", unit="video", disable=not progress or not todo)
-    if workers <= 1 and dask is None:
-        for entry in todo:
-            try:
-                store(*_build_one(entry, source))
-            except Exception as error:  # one bad video must not stop the evaluation
-                infos[entry.scene_index] = {"source": source, "error": f"{type(error).__name__}: {error}"}
-            bar.update()
-    else:
-        with open_executor(dask, max(1, workers)) as pool:
-            futures = {pool.submit(_build_one, entry, source): entry for entry in todo}
-            for future in as_completed(futures):
-                entry = futures[future]
-                try:
-                    store(*future.result())
-                except Exception as error:
-                    infos[entry.scene_index] = {"source": source, "error": f"{type(error).__name__}: {error}"}
-                bar.update()
+    for position, built, error in run_jobs(_build_one, [(entry, source) for entry in todo], workers, dask):
+        if error is None:
+            store(*built)
+        else:  # one bad video must not stop the evaluation
+            infos[todo[position].scene_index] = {"source": source, "error": f"{type(error).__name__}: {error}"}
+        bar.update()
     bar.close()
     return worlds, infos

@@ -92,15 +92,23 @@ def run_jobs(fn: Callable, jobs: Sequence[tuple], workers: int = 1,
              dask: str | None = None) -> Iterator[tuple[int, Any, Exception | None]]:
     """``(position in jobs, fn(*job) or None, the exception it raised or None)`` for every job, as each
     finishes: in this process when ``workers`` <= 1 and no ``dask`` address is given, else on
-    ``open_executor(dask, workers)``. A failing job does not stop the others."""
+    ``open_executor(dask, workers)``. A failing job does not stop the others. The executor is opened
+    here, before the first job, so a bad or unreachable ``dask`` address fails before any progress output."""
     if workers <= 1 and dask is None:
-        for position, job in enumerate(jobs):
-            try:
-                yield position, fn(*job), None
-            except Exception as error:  # reported to the caller with its job
-                yield position, None, error
-        return
-    with open_executor(dask, max(1, workers)) as executor:
+        return _run_here(fn, jobs)
+    return _run_on(open_executor(dask, max(1, workers)), fn, jobs)
+
+
+def _run_here(fn: Callable, jobs: Sequence[tuple]) -> Iterator[tuple[int, Any, Exception | None]]:
+    for position, job in enumerate(jobs):
+        try:
+            yield position, fn(*job), None
+        except Exception as error:  # reported to the caller with its job
+            yield position, None, error
+
+
+def _run_on(executor: Executor, fn: Callable, jobs: Sequence[tuple]) -> Iterator[tuple[int, Any, Exception | None]]:
+    with executor:
         futures = {executor.submit(fn, *job): position for position, job in enumerate(jobs)}
         for future in as_completed(futures):
             try:

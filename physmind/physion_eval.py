@@ -144,8 +144,9 @@ def fit_trials(directory: Path, trials: list[dict[str, Any]], workers: int = 1, 
                progress: bool = False, dask: str | None = None) -> Iterator[tuple[int, FittedTrial]]:
     """(position in ``trials``, fitted world) as each fit finishes: in this process, ``workers`` > 1 local
     processes, or on Dask (``dask``: 'local' or a scheduler address; physmind/executors.py)."""
+    results = run_jobs(fit_trial, [(directory, trial, cache) for trial in trials], workers, dask)
     with tqdm(total=len(trials), desc="physion fit", unit="trial", disable=not progress) as bar:
-        for position, fitted, error in run_jobs(fit_trial, [(directory, trial, cache) for trial in trials], workers, dask):
+        for position, fitted, error in results:
             if error is not None:
                 raise error
             yield position, fitted

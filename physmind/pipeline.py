@@ -136,8 +136,9 @@ def build_worlds(entries: Sequence[VideoEntry], source: str, workers: int = 1, c
             (Path(cache_dir) / f"world_{index:05d}.json").write_text(json.dumps(world))
             (Path(cache_dir) / f"build_{index:05d}.json").write_text(json.dumps(info))
 
+    results = run_jobs(_build_one, [(entry, source) for entry in todo], workers, dask)
     bar = tqdm(total=len(todo), desc=f"build ({source})", unit="video", disable=not progress or not todo)
-    for position, built, error in run_jobs(_build_one, [(entry, source) for entry in todo], workers, dask):
+    for position, built, error in results:
         if error is None:
             store(*built)
         else:  # one bad video must not stop the evaluation

@@ -11,12 +11,16 @@ velocity, yaw, yaw rate at ``initial.time``); bodies with a later
 
 Collision response (paper eq. 3): ``j = -(1 + e) (v_i - v_j).n / (1/m_i + 1/m_j)``
 along the footprint contact normal ``n`` (from j to i), applied to the linear
-velocities only (frictionless contact between bodies, no torque). The pair's
-restitution is ``World.pair_restitution`` if given, else ``min(e_i, e_j)``.
-Spin: the model has no moments of inertia, so a collision stops the yaw rate
-of both bodies (otherwise a spinning cube would keep sweeping its corners
-into its partner). A spinning cube whose corner reaches a body while the
-centres separate makes a collision with zero impulse that only stops the spin.
+velocities (central: no torque). The pair's restitution is
+``World.pair_restitution`` if given, else ``min(e_i, e_j)``. Bodies with
+``contact_friction`` also get the friction impulse of
+``world.contacts.tangential_impulse`` (Coulomb, sticking limit, the world's
+slip share): it changes the linear velocities, gives cubes and cylinders
+their spin about z, and brakes a rolling sphere's spin. Without friction a
+collision stops the yaw rate of both bodies (no angular impulse; otherwise a
+spinning cube would keep sweeping its corners into its partner). A spinning
+cube whose corner reaches a body while the centres separate makes a
+collision with zero impulse that only stops the spin.
 
 Rolling spheres (``Body.rolling_friction`` set): a collision changes the
 velocity but not the spin, so the sphere skids until its contact point stops

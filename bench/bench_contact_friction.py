@@ -2,7 +2,9 @@
 
 One object launched at a resting one, off-centre (bench/pair_mujoco.py: the
 generator's own MJCF and simulation), and the same scene in our engine with
-the generator's parameters: frictionless contact (before), rigid Coulomb
+the generator's parameters: spheres sliding at their rolling deceleration
+without friction between bodies (identification's default before), rolling
+spheres with frictionless contact, rigid Coulomb
 with the sticking limit (slip removal 1), and the share of the slip that
 MuJoCo's soft contact removes (``--slip-removal``, the value identification
 uses). Printed per case: the direction error (degrees) of the struck and the
@@ -45,8 +47,8 @@ def case_errors(shapes, frictions, speed, offset, seconds, models) -> dict[str, 
         return {}
     probe = truth.collisions[0].frame + 3
     out = {}
-    for name, (friction_on, removal) in models.items():
-        ours = simulate(engine_world(spec, frames, friction_on, removal), horizon_frames=frames)
+    for name, (friction_on, removal, rolling) in models.items():
+        ours = simulate(engine_world(spec, frames, friction_on, removal, rolling), horizon_frames=frames)
         errors = np.linalg.norm(ours.positions[:, :, :2] - truth.positions[:, :, :2], axis=2)
         out[name] = (direction_error_deg(ours.velocities[probe, 1, :2], truth.velocities[probe, 1, :2]),
                      direction_error_deg(ours.velocities[probe, 0, :2], truth.velocities[probe, 0, :2]),
@@ -59,9 +61,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--seconds", type=float, default=2.0)
     parser.add_argument("--slip-removal", type=float, default=FitConfig().contact_slip_removal)
     args = parser.parse_args(argv)
-    models = {"frictionless": (False, 1.0), "Coulomb, sticking": (True, 1.0),
-              f"Coulomb, removal {args.slip_removal:g}": (True, args.slip_removal)}
-    print(f"{'pair':<18} {'mu':>9} {'v':>4} {'offset':>6} | " + " | ".join(f"{m:<26}" for m in models))
+    # (friction between bodies, slip removal, rolling spheres); the first row is the
+    # sliding-sphere model identification used by default before.
+    models = {"sliding spheres, frictionless": (False, 1.0, False),
+              "frictionless": (False, 1.0, True), "Coulomb, sticking": (True, 1.0, True),
+              f"Coulomb, removal {args.slip_removal:g}": (True, args.slip_removal, True)}
+    print(f"{'pair':<18} {'mu':>9} {'v':>4} {'offset':>6} | " + " | ".join(f"{m[:26]:<26}" for m in models))
     print(f"{'':<18} {'':>9} {'':>4} {'':>6} | " + " | ".join(f"{'struck  striker  max cm':<26}" for _ in models))
     totals = {m: [] for m in models}
     for shapes, frictions, speed in CASES:
@@ -78,7 +83,7 @@ def main(argv: list[str] | None = None) -> int:
     print("median |struck deg| |striker deg| max cm, and the worst case:")
     for m, values in totals.items():
         v = np.array(values)
-        print(f"  {m:<26} {np.median(v[:, 0]):>6.1f} {np.median(v[:, 1]):>6.1f} {np.median(v[:, 2]) * 100:>6.1f}   "
+        print(f"  {m:<30} {np.median(v[:, 0]):>6.1f} {np.median(v[:, 1]):>6.1f} {np.median(v[:, 2]) * 100:>6.1f}   "
               f"worst {v[:, 0].max():.1f} deg, {v[:, 1].max():.1f} deg, {v[:, 2].max() * 100:.1f} cm")
     return 0
 

@@ -49,9 +49,10 @@ def run_pair(spec: SceneSpec, seconds: float) -> SimResult:
 
 
 def engine_world(spec: SceneSpec, observed_frames: int, contact_friction: bool = True,
-                 slip_removal: float = 1.0) -> World:
+                 slip_removal: float = 1.0, rolling_spheres: bool = True) -> World:
     """The same scene for our engine: the generator's parameters, the pair's nominal restitution;
-    spheres roll (skid friction = sliding coefficient); contact_friction = each object's sliding
+    spheres roll (skid friction = sliding coefficient), or slide at their rolling deceleration
+    (``rolling_spheres=False``, the sliding model); contact_friction = each object's sliding
     coefficient (so the pair's mean is the generator's pair friction), or none."""
     bodies = []
     for obj in spec.objects:
@@ -59,8 +60,10 @@ def engine_world(spec: SceneSpec, observed_frames: int, contact_friction: bool =
         shape = Shape("sphere", radius=OBJECT_HALF_SIZE) if sphere else (
             Shape("cube", half_extent=OBJECT_HALF_SIZE) if obj.shape == "cube" else Shape("cylinder", radius=OBJECT_HALF_SIZE, half_height=OBJECT_HALF_SIZE))
         rolling = deceleration(obj.shape, obj.friction, obj.rolling_friction) / GRAVITY if sphere else None
+        slides = sphere and not rolling_spheres
         bodies.append(Body(obj.object_id, shape, BodyState(obj.position, obj.velocity, obj.yaw), mass=obj.mass,
-                           friction=obj.friction, restitution=obj.restitution, rolling_friction=rolling,
+                           friction=rolling if slides else obj.friction, restitution=obj.restitution,
+                           rolling_friction=None if slides else rolling,
                            contact_friction=obj.friction if contact_friction else None))
     e = pair_restitution(*spec.objects)
     return World(tuple(bodies), fps=spec.fps, observed_frames=observed_frames, pair_restitution=((0, 1, e),),

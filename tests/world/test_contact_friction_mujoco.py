@@ -31,7 +31,7 @@ CASES = [
 @pytest.mark.parametrize("case", range(len(CASES)), ids=["sphere-sphere", "sphere-cylinder", "cylinder-sphere"])
 def test_friction_between_bodies_brings_the_engine_closer_to_mujoco(case):
     shapes, frictions, speed, offset = CASES[case]
-    models = {"frictionless": (False, 1.0), "friction": (True, FitConfig().contact_slip_removal)}
+    models = {"frictionless": (False, 1.0, True), "friction": (True, FitConfig().contact_slip_removal, True)}
     errors = case_errors(shapes, frictions, speed, offset, SECONDS, models)
     assert errors, "the launch must produce a collision in MuJoCo"
     struck_before, _, worst_before = errors["frictionless"]

@@ -50,7 +50,9 @@ class FitConfig:
     # starts from this prior (hard rubber or metal on a hard floor, 0.3-0.5)
     # and is refined by the joint fit for spheres in collisions. Off by
     # default: on 40 fresh scenes it fitted worse than sliding spheres in the
-    # same run (+3 s median 11.2 vs 8.4 cm, RMSE p95 17 vs 9 cm; docs/benchmarks.md).
+    # same run (+3 s median 11.2 vs 8.4 cm, RMSE p95 17 vs 9 cm), and again
+    # with friction between bodies on 40 other fresh scenes (+3 s median 14.1
+    # vs 11.5 cm; docs/benchmarks.md, "Issue 13, motion modes").
     rolling_spheres: bool = False
     skid_friction_prior: float = 0.4
     # Friction between bodies at impacts (docs/engine.md, "Collision response"):

@@ -486,3 +486,81 @@ def _bounding_entry(d0, dv, da, radius_sum, tau_max):
         return None
     inside = real_roots(_quartic_gap_coefficients(d0, dv, da, radius_sum), 0.0, tau_max)
     return max(float(inside[0]) - 1e-9, 0.0) if inside else None
+
+
+# --------------------------------------------------------------------------- friction at impacts
+
+def pair_friction(mu_i: float | None, mu_j: float | None) -> float:
+    """Coulomb coefficient between two bodies: the mean of their ``contact_friction`` (None counts as 0)."""
+    return 0.5 * ((mu_i or 0.0) + (mu_j or 0.0))
+
+
+@dataclass(frozen=True)
+class TangentialImpulse:
+    """A friction impulse at an impact, in the contact's tangent plane.
+
+    impulse: N s on body i along the horizontal tangent ``t = (-n_y, n_x)``
+    (body j receives the opposite); vertical: N s on body i along +z at the
+    contact point (only rolling spheres' contact points slip vertically; the
+    floor takes the linear part, the moment changes their rolling spin);
+    yaw_rate_change_i, yaw_rate_change_j: rad/s from the horizontal impulse's
+    moment about each centre; sticking: whether the slip's share
+    ``slip_removal`` was removed (True) or the Coulomb limit acted (False).
+    """
+
+    impulse: float
+    vertical: float
+    yaw_rate_change_i: float
+    yaw_rate_change_j: float
+    sticking: bool
+
+
+def tangential_impulse(
+    normal: tuple[float, float],
+    relative_velocity: tuple[float, float],
+    yaw_rates: tuple[float, float],
+    levers: tuple[float, float],
+    masses: tuple[float, float],
+    yaw_inertias: tuple[float, float],
+    normal_impulse: float,
+    friction: float,
+    slip_removal: float = 1.0,
+    vertical_slip: float = 0.0,
+    vertical_compliance: float = 0.0,
+) -> TangentialImpulse:
+    """Coulomb friction impulse of an impact between bodies i and j, in closed form.
+
+    normal: (2,) unit, from j to i. relative_velocity: (2,) m/s, ``v_i - v_j``
+    of the centres just before. yaw_rates: (w_i, w_j) rad/s. levers: (l_i, l_j)
+    m, ``(contact point - centre) . n`` of each body (the arm of a tangential
+    force about the vertical axis: ``(r x t)_z = r . n``). masses: kg;
+    yaw_inertias: kg m^2 about the vertical axis. normal_impulse: N s (>= 0)
+    on i along n. friction: the pair's Coulomb coefficient.
+    vertical_slip: m/s, vertical velocity of i's contact point minus j's
+    (a rolling sphere's spin moves its equator up or down);
+    vertical_compliance: 1/kg, the change of that slip per N s of vertical
+    impulse on i (``sum r^2 / I`` over the rolling spheres of the pair; 0: none).
+
+    Horizontally the contact points slip at ``u = (v_i - v_j).t + w_i l_i - w_j l_j``;
+    an impulse ``J`` along t on i (and -J on j) changes u by ``J k`` with
+    ``k = 1/m_i + 1/m_j + l_i^2 / I_i + l_j^2 / I_j``. The impulse that stops
+    the slip is ``-u / k`` (sticking), likewise ``-vertical_slip / vertical_compliance``
+    vertically; an impact removes the share ``slip_removal`` of the slip (1: a
+    rigid contact sticks; a soft contact that lasts a short time removes
+    less, World.contact_slip_removal), and Coulomb bounds the impulse's
+    magnitude in the tangent plane by ``friction * normal_impulse`` (the
+    impulse keeps its direction): friction can stop the slip but never reverse it.
+    """
+    nx, ny = normal
+    tx, ty = -ny, nx
+    li, lj = levers
+    slip = relative_velocity[0] * tx + relative_velocity[1] * ty + yaw_rates[0] * li - yaw_rates[1] * lj
+    k = 1.0 / masses[0] + 1.0 / masses[1] + li * li / yaw_inertias[0] + lj * lj / yaw_inertias[1]
+    horizontal = -slip_removal * slip / k
+    vertical = -slip_removal * vertical_slip / vertical_compliance if vertical_compliance > 0.0 else 0.0
+    limit = friction * max(normal_impulse, 0.0)
+    size = math.hypot(horizontal, vertical)
+    sticking = size <= limit
+    if not sticking:
+        horizontal, vertical = horizontal * limit / size, vertical * limit / size
+    return TangentialImpulse(horizontal, vertical, li * horizontal / yaw_inertias[0], -lj * horizontal / yaw_inertias[1], sticking)

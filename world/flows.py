@@ -29,8 +29,8 @@ Yaw (rotation about +z): while a body slides its yaw rate decays linearly and
 reaches zero exactly at the translational stopping time (constant angular
 deceleration, like the linear one); at rest the yaw rate is zero; in flight
 the yaw rate is constant. Collisions are not this module's business: the
-rollout (world/rollout.py) sets both bodies' yaw rate to zero at a collision,
-since the model has no moments of inertia to carry spin through an impulse.
+rollout (world/rollout.py) sets both bodies' yaw rate at a collision (zero
+without friction between them, else the friction impulse's spin).
 """
 
 from __future__ import annotations

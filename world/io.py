@@ -80,6 +80,8 @@ def _body_to_dict(body: Body) -> dict[str, Any]:
         "active_until": None if body.active_until is None else float(body.active_until),
         # Written only for rolling spheres (older documents read back unchanged).
         **({} if body.rolling_friction is None else {"rolling_friction": float(body.rolling_friction)}),
+        # Written only when set (friction between bodies; older documents read back unchanged).
+        **({} if body.contact_friction is None else {"contact_friction": float(body.contact_friction)}),
     }
 
 
@@ -174,6 +176,7 @@ def world_to_dict(world: World) -> dict[str, Any]:
         # Written only when known, so older documents read back unchanged.
         **({"observed_collisions": [{"bodies": [a, b], "frame": f} for a, b, f in world.observed_collisions]}
            if world.observed_collisions is not None else {}),
+        **({"contact_slip_removal": float(world.contact_slip_removal)} if world.contact_slip_removal != 1.0 else {}),
     }
 
 
@@ -191,7 +194,7 @@ def world_from_dict(document: Mapping[str, Any]) -> World:
                 initial=_state_from_dict(st),
                 mass=b["mass"], friction=b["friction"], restitution=b["restitution"],
                 color=b["color"], material=b["material"], active_until=b["active_until"],
-                rolling_friction=b.get("rolling_friction")))
+                rolling_friction=b.get("rolling_friction"), contact_friction=b.get("contact_friction")))
         except ValueError as error:
             raise ValueError(f"bodies[{index}]: {error}") from None
     camera = None if document["camera"] is None else camera_from_dict(document["camera"])
@@ -207,6 +210,7 @@ def world_from_dict(document: Mapping[str, Any]) -> World:
         anchor=_anchor_from_dict(document.get("anchor")),
         observed_collisions=None if "observed_collisions" not in document else
         tuple((c["bodies"][0], c["bodies"][1], c["frame"]) for c in document["observed_collisions"]),
+        contact_slip_removal=document.get("contact_slip_removal", 1.0),
     )
 
 

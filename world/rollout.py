@@ -11,12 +11,16 @@ velocity, yaw, yaw rate at ``initial.time``); bodies with a later
 
 Collision response (paper eq. 3): ``j = -(1 + e) (v_i - v_j).n / (1/m_i + 1/m_j)``
 along the footprint contact normal ``n`` (from j to i), applied to the linear
-velocities only (frictionless contact between bodies, no torque). The pair's
-restitution is ``World.pair_restitution`` if given, else ``min(e_i, e_j)``.
-Spin: the model has no moments of inertia, so a collision stops the yaw rate
-of both bodies (otherwise a spinning cube would keep sweeping its corners
-into its partner). A spinning cube whose corner reaches a body while the
-centres separate makes a collision with zero impulse that only stops the spin.
+velocities (central: no torque). The pair's restitution is
+``World.pair_restitution`` if given, else ``min(e_i, e_j)``. Bodies with
+``contact_friction`` also get the friction impulse of
+``world.contacts.tangential_impulse`` (Coulomb, sticking limit, the world's
+slip share): it changes the linear velocities, gives cubes and cylinders
+their spin about z, and brakes a rolling sphere's spin. Without friction a
+collision stops the yaw rate of both bodies (no angular impulse; otherwise a
+spinning cube would keep sweeping its corners into its partner). A spinning
+cube whose corner reaches a body while the centres separate makes a
+collision with zero impulse that only stops the spin.
 
 Rolling spheres (``Body.rolling_friction`` set): a collision changes the
 velocity but not the spin, so the sphere skids until its contact point stops
@@ -43,7 +47,8 @@ import numpy as np
 
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of
 from world.camera import footprint_visible, view_events
-from world.contacts import CIRCLE, SQUARE, Footprint, PlanarMotion, closing, footprint_distance, predict_contact
+from world.contacts import (CIRCLE, SQUARE, Footprint, PlanarMotion, closing, footprint_distance, pair_friction,
+                            predict_contact, tangential_impulse)
 from world.edits import apply_edits
 from world.flows import FLIGHT, REST, SKID, Segment, evaluate_segments, inactive_segment, start_segment, start_sphere_segment
 from world.types import Body, Edit, Event, Rollout, World
@@ -252,13 +257,52 @@ class _Engine:
             impulse = j
             new_va = (va[0] + j / ma * nx, va[1] + j / ma * ny, va[2])
             new_vb = (vb[0] - j / mb * nx, vb[1] - j / mb * ny, vb[2])
+            # Without friction between the bodies a collision stops the spin (no angular
+            # impulse; see module doc); with it, the friction impulse sets the spin.
+            yaw_rate_a = yaw_rate_b = 0.0
+            mu = pair_friction(body_a.contact_friction, body_b.contact_friction)
+            if mu > 0.0:
+                point = contact.point
+                lever_a = (point[0] - pa[0]) * nx + (point[1] - pa[1]) * ny
+                lever_b = (point[0] - pb[0]) * nx + (point[1] - pb[1]) * ny
+                own_a, own_b = self._yaw_rate_of(a, wa), self._yaw_rate_of(b, wb)
+                # A rolling sphere's equator moves vertically at spin . n (a) or -spin . n (b):
+                # vertical friction at the contact changes its rolling spin (r^2 / I per unit mass).
+                roll_a = self._spin_compliance(a)
+                roll_b = self._spin_compliance(b)
+                vertical_slip = ((spin_a[0] * nx + spin_a[1] * ny) if roll_a else 0.0) + \
+                    ((spin_b[0] * nx + spin_b[1] * ny) if roll_b else 0.0)
+                friction = tangential_impulse(
+                    (nx, ny), (va[0] - vb[0], va[1] - vb[1]), (own_a, own_b), (lever_a, lever_b), (ma, mb),
+                    (ma * body_a.shape.yaw_inertia_per_mass, mb * body_b.shape.yaw_inertia_per_mass), j, mu,
+                    self.world.contact_slip_removal, vertical_slip, roll_a / ma + roll_b / mb)
+                jt, tx, ty = friction.impulse, -ny, nx
+                new_va = (new_va[0] + jt / ma * tx, new_va[1] + jt / ma * ty, new_va[2])
+                new_vb = (new_vb[0] - jt / mb * tx, new_vb[1] - jt / mb * ty, new_vb[2])
+                yaw_rate_a = self._yaw_rate_of(a, own_a + friction.yaw_rate_change_i)
+                yaw_rate_b = self._yaw_rate_of(b, own_b + friction.yaw_rate_change_j)
+                jz = friction.vertical
+                if roll_a:
+                    spin_a = (spin_a[0] + roll_a * jz / ma * nx, spin_a[1] + roll_a * jz / ma * ny)
+                if roll_b:
+                    spin_b = (spin_b[0] + roll_b * jz / mb * nx, spin_b[1] + roll_b * jz / mb * ny)
             self.friction[a], self.friction[b] = body_a.friction, body_b.friction
-            # Collisions stop the spin (the model has no angular impulse; see module doc).
-            self._set_segment(a, t, pa, new_va, yaw_a, 0.0, spin_a)
-            self._set_segment(b, t, pb, new_vb, yaw_b, 0.0, spin_b)
+            self._set_segment(a, t, pa, new_va, yaw_a, yaw_rate_a, spin_a)
+            self._set_segment(b, t, pb, new_vb, yaw_b, yaw_rate_b, spin_b)
         self._record(t, Event("collision", ids, t, frame_of(t, self.world.fps),
                               (contact.point[0], contact.point[1], height), float(impulse)))
         return members
+
+    def _spin_compliance(self, k: int) -> float:
+        """m r^2 / I (dimensionless) of body k's rolling spin about a horizontal axis: a rolling
+        sphere's (2.5 for a solid one); 0 for bodies whose spin is not tracked."""
+        body = self.bodies[k]
+        return body.shape.radius**2 / body.shape.yaw_inertia_per_mass if body.rolls else 0.0
+
+    def _yaw_rate_of(self, k: int, yaw_rate: float) -> float:
+        """The yaw rate body k carries: a sphere's spin about z is not tracked (its footprint
+        and its rolling do not depend on it), so it is 0 for spheres."""
+        return 0.0 if self.bodies[k].shape.kind == "sphere" else yaw_rate
 
     def _touching_cluster(self, a: int, b: int, t: float) -> list[int]:
         """a, b and every body linked to them by a touching pair that collided within ZENO_INTERVAL."""

@@ -97,6 +97,19 @@ class Shape:
             return self.half_extent * math.sqrt(2.0)
         return self.radius
 
+    @property
+    def yaw_inertia_per_mass(self) -> float:
+        """Moment of inertia about the vertical axis through the centre, per unit mass (m^2).
+
+        Solid sphere 2/5 r^2, solid upright cylinder r^2 / 2, solid cube
+        (2h)^2 / 6 = 2/3 h^2 with h the half extent.
+        """
+        if self.kind == "sphere":
+            return 0.4 * self.radius**2
+        if self.kind == "cylinder":
+            return 0.5 * self.radius**2
+        return 2.0 / 3.0 * self.half_extent**2
+
 
 @dataclass(frozen=True)
 class BodyState:
@@ -147,6 +160,10 @@ class Body:
     ``friction`` is then its kinetic (skid) friction while its contact point
     slips, e.g. after a collision. None: it slides at ``friction * g`` like
     any other body (worlds written before the rolling model).
+    contact_friction: optional Coulomb coefficient of its surface against
+    other bodies (>= 0); a pair's friction is the mean of the two
+    (``world.contacts.pair_friction``), None counting as 0. None for both:
+    frictionless contact between them (worlds written before).
     """
 
     id: int
@@ -159,6 +176,7 @@ class Body:
     material: str | None = None
     active_until: float | None = None
     rolling_friction: float | None = None
+    contact_friction: float | None = None
 
     def __post_init__(self) -> None:
         _require(isinstance(self.id, (int, np.integer)) and not isinstance(self.id, bool) and self.id >= 0, f"body.id: expected an integer >= 0, got {self.id!r}")
@@ -170,6 +188,8 @@ class Body:
         if self.rolling_friction is not None:
             _require(self.shape.kind == "sphere", f"body {self.id}: rolling_friction applies to spheres only, not a {self.shape.kind}")
             _require(_finite(self.rolling_friction) and self.rolling_friction > 0, f"body {self.id}: rolling_friction must be a finite number > 0, got {self.rolling_friction!r}")
+        if self.contact_friction is not None:
+            _require(_finite(self.contact_friction) and self.contact_friction >= 0, f"body {self.id}: contact_friction must be a finite number >= 0, got {self.contact_friction!r}")
         if self.active_until is not None:
             _require(_finite(self.active_until) and self.active_until > self.initial.time, f"body {self.id}: active_until must be after initial.time, got {self.active_until!r}")
 
@@ -254,6 +274,10 @@ class World:
     collisions seen in the observed video (identification's events, the
     evidence explanatory answers rest on); None when unknown (a world not
     fitted to a video).
+    contact_slip_removal: share in [0, 1] of the contact points' tangential
+    slip that an impact between two bodies with friction removes, at most
+    (``world.contacts.tangential_impulse``): 1 is a rigid contact that sticks;
+    the Coulomb limit applies on top.
     provenance: free-form record of where the parameters came from
     (e.g. the fit report); kept JSON-serialisable.
     """
@@ -268,9 +292,12 @@ class World:
     provenance: Mapping[str, object] = field(default_factory=dict)
     anchor: Anchor | None = None
     observed_collisions: tuple[tuple[int, int, int], ...] | None = None
+    contact_slip_removal: float = 1.0
 
     def __post_init__(self) -> None:
         ids = [b.id for b in self.bodies]
+        _require(_finite(self.contact_slip_removal) and 0 <= self.contact_slip_removal <= 1,
+                 f"contact_slip_removal: must be in [0, 1], got {self.contact_slip_removal!r}")
         _require(len(ids) == len(set(ids)), f"bodies: duplicate body ids {sorted({i for i in ids if ids.count(i) > 1})}")
         _require(_finite(self.fps) and self.fps > 0, f"fps: must be > 0, got {self.fps!r}")
         _require(isinstance(self.observed_frames, (int, np.integer)) and self.observed_frames >= 0, f"observed_frames: must be an integer >= 0, got {self.observed_frames!r}")

@@ -50,9 +50,18 @@ class FitConfig:
     # starts from this prior (hard rubber or metal on a hard floor, 0.3-0.5)
     # and is refined by the joint fit for spheres in collisions. Off by
     # default: on 40 fresh scenes it fitted worse than sliding spheres in the
-    # same run (+3 s median 11.2 vs 8.4 cm, RMSE p95 17 vs 9 cm; docs/benchmarks.md).
+    # same run (+3 s median 11.2 vs 8.4 cm, RMSE p95 17 vs 9 cm), and again
+    # with friction between bodies on 40 other fresh scenes (+3 s median 14.1
+    # vs 11.5 cm; docs/benchmarks.md, "Issue 13, motion modes").
     rolling_spheres: bool = False
     skid_friction_prior: float = 0.4
+    # Friction between bodies at impacts (docs/engine.md, "Collision response"):
+    # a body's surface is taken to rub on another as on the floor (its fitted
+    # sliding friction; a sphere's skid friction), and an impact removes
+    # this share of the contact points' slip, as MuJoCo's soft contact does
+    # (bench/bench_contact_friction.py). False: frictionless contacts.
+    friction_between_bodies: bool = True
+    contact_slip_removal: float = 0.45
     restitution_prior: float = 0.8
     # Semantic prior for masses across unconnected components: density
     # (kg/m^3) by material times the volume of the known shape. Rubber is
@@ -288,9 +297,13 @@ class BodyEstimate:
     skid_friction: float | None = None
 
 
-def _body(estimate: BodyEstimate) -> Body:
+def _body(estimate: BodyEstimate, config: FitConfig) -> Body:
     track = estimate.track
     rolls = estimate.skid_friction is not None
+    contact_friction = None
+    if config.friction_between_bodies:
+        contact_friction = (estimate.skid_friction if rolls else config.skid_friction_prior) \
+            if track.shape.kind == "sphere" else estimate.friction
     return Body(
         id=track.id,
         shape=track.shape,
@@ -306,6 +319,7 @@ def _body(estimate: BodyEstimate) -> Body:
         restitution=estimate.restitution,
         color=track.color,
         material=track.material,
+        contact_friction=contact_friction,
     )
 
 
@@ -355,13 +369,14 @@ def _world(
     provenance: Mapping[str, object] | None = None,
 ) -> World:
     return World(
-        bodies=_separated(tuple(_body(e) for e in estimates)),
+        bodies=_separated(tuple(_body(e, config) for e in estimates)),
         fps=observations.fps,
         observed_frames=observations.num_frames,
         gravity=config.gravity,
         pair_restitution=tuple((a, b, float(e)) for (a, b), e in sorted(pair_restitution.items())),
         camera=observations.camera,
         provenance=dict(provenance or {}),
+        contact_slip_removal=config.contact_slip_removal,
     )
 
 

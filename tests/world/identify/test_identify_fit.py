@@ -26,13 +26,14 @@ FIXTURES = Path(__file__).resolve().parents[2] / "data" / "synth"
 
 
 def _body(body_id, kind, xy, velocity, mass, friction, color, material="rubber"):
-    """``friction``: the body's deceleration / g (a sphere rolls at it, and skids at 0.4)."""
+    """``friction``: the body's deceleration / g (a sphere rolls at it, and skids at 0.4); friction
+    between bodies as identification assumes it (the surface's floor friction, a sphere's skid friction)."""
     shape = default_shape(kind)
     sphere = kind == "sphere"
     return Body(
         body_id, shape, BodyState((xy[0], xy[1], shape.rest_height), (velocity[0], velocity[1], 0.0)),
         mass=mass, friction=0.4 if sphere else friction, restitution=0.75, color=color, material=material,
-        rolling_friction=friction if sphere else None,
+        rolling_friction=friction if sphere else None, contact_friction=0.4 if sphere else friction,
     )
 
 
@@ -55,6 +56,7 @@ CHAIN = World(
         _body(3, "cube", (1.0, 2.0), (0.0, 0.0), 1.0, 0.07, "yellow"),
     ),
     observed_frames=100,
+    contact_slip_removal=FitConfig().contact_slip_removal,
 )
 GLANCING = World(
     (
@@ -62,6 +64,7 @@ GLANCING = World(
         _body(1, "cylinder", (0.0, 0.0), (0.0, 0.0), 0.5, 0.05, "cyan"),
     ),
     observed_frames=80,
+    contact_slip_removal=FitConfig().contact_slip_removal,
 )
 
 

@@ -306,6 +306,7 @@ def _body(estimate: BodyEstimate) -> Body:
         restitution=estimate.restitution,
         color=track.color,
         material=track.material,
+        attribute_belief=track.attribute_belief,
     )
 
 

@@ -58,6 +58,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from tqdm import tqdm
 
+from bench.bench_cached_answers import ungrounded_questions  # noqa: E402
 from bench.metrics import GroundTruth, score_world  # noqa: E402
 from perception.pipeline import perceive
 from physmind.local_server import local_server
@@ -343,18 +344,6 @@ def attribute_scene(job: tuple) -> dict:
 
 
 # -- tables ----------------------------------------------------------------------------------
-
-
-# What an undecided reference says (planner.grounding messages; the older "ambiguous" / "matches no object" too).
-UNGROUNDED_MARKS = ("cannot ground", "is ambiguous", "matches no object", "has no objects")
-
-
-def ungrounded_questions(records) -> int:
-    """Questions whose answer, or one of whose options, was left undecided for want of a grounded reference."""
-    def failed(error: str | None) -> bool:
-        return error is not None and any(mark in error for mark in UNGROUNDED_MARKS)
-    return sum(1 for r in records if r.answer is not None and (failed(r.answer.error) or any(
-        c.verdict is None and failed(c.error) for c in r.answer.choices)))
 
 
 def identification_table(results: list[dict]) -> str:

@@ -36,6 +36,13 @@ def _ungrounded(error: str | None) -> bool:
     return error is not None and any(mark in error for mark in UNGROUNDED_MARKS)
 
 
+def ungrounded_questions(records) -> int:
+    """Questions (planner.evaluate.QuestionRecord) whose answer, or one of whose options, was left undecided
+    for want of a grounded reference."""
+    return sum(1 for r in records if r.answer is not None and (_ungrounded(r.answer.error) or any(
+        c.verdict is None and _ungrounded(c.error) for c in r.answer.choices)))
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("data", type=Path, help="dataset written by physmind synth")
@@ -65,8 +72,7 @@ def main(argv: list[str] | None = None) -> int:
             evaluated = evaluate(entries, worlds, client, ExecutorConfig(mode="execute"), progress=False,
                                  build_info={i: {"error": "no world in the cache"} for i in cached if i not in worlds})
             tables[row] = evaluated.table()
-            ungrounded = sum(1 for r in evaluated.records if r.answer is not None and (_ungrounded(r.answer.error) or any(
-                c.verdict is None and _ungrounded(c.error) for c in r.answer.choices)))
+            ungrounded = ungrounded_questions(evaluated.records)
             undecided = sum(1 for r in evaluated.records for v in r.verdicts if v is None)
             print(f"{row}: questions with an ungrounded reference {ungrounded} of {len(evaluated.records)}; undecided options {undecided}")
     print(format_table(tables))

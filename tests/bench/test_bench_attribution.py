@@ -149,3 +149,27 @@ def test_true_candidates_are_the_observed_collisions(scene):
     assert sorted((c.bodies[0], c.bodies[1], c.frame) for c in candidates) == sorted(truth.collisions)
     for c in candidates:
         assert np.isclose(np.linalg.norm(c.normal), 1.0)
+
+
+def test_ungrounded_questions_counts_only_reference_failures():
+    """A question counts when its own reference or an undecided option's reference failed to ground; an option
+    undecided for another reason (a program that does not apply) does not."""
+    from bench.bench_cached_answers import ungrounded_questions
+    from planner.answer import Answer, ChoiceAnswer
+    from planner.evaluate import QuestionRecord
+
+    def record(error=None, choice_errors=(None,)):
+        choices = tuple(ChoiceAnswer(k, "c", None, None if e else "wrong", error=e) for k, e in enumerate(choice_errors))
+        return QuestionRecord(0, 0, "explanatory", ("wrong",) * len(choices), Answer("q", "explanatory", None, choices, error=error))
+
+    records = [record(error="cannot ground the question: the red cube: the world has no objects"),
+               record(choice_errors=("the green object is ambiguous: objects [5, 7] all match", None)),
+               record(choice_errors=("token 7 (unique): unique: expected exactly one item, got 0",)),
+               record()]
+    assert ungrounded_questions(records) == 2
+
+
+def test_unknown_rows_are_refused():
+    from bench.bench_attribution import main
+    with pytest.raises(SystemExit, match="unknown row"):
+        main(["/nonexistent", "--rows", "from video,swap colours"])

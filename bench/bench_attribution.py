@@ -165,6 +165,7 @@ def _track(template: ObjectTrack, object_id: int, rows: list[tuple[int, np.ndarr
         weights=np.array([r[4] for r in rows], dtype=float),
         color=template.color,
         material=template.material,
+        attribute_belief=template.attribute_belief,
     )
 
 
@@ -199,7 +200,9 @@ def swap_attributes(perceived: Observations, truth: Truth, assignment: dict[int,
             tracks.append(track)
             continue
         color, material, shape = truth.attributes[object_id]
-        tracks.append(replace(track, color=color, material=material, shape=default_shape(shape, DEFAULT_OBJECT_SIZE)))
+        # The true attributes are certain: no perceived belief goes with them.
+        tracks.append(replace(track, color=color, material=material, shape=default_shape(shape, DEFAULT_OBJECT_SIZE),
+                              attribute_belief=None))
     return replace(perceived, objects=tuple(tracks))
 
 

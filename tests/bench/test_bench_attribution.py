@@ -26,6 +26,7 @@ from bench.bench_attribution import (
     true_candidates,
 )
 from world.observations import Observations, default_shape
+from world.types import AttributeBelief
 
 DATA = Path(__file__).resolve().parents[2] / "tests" / "data" / "synth"
 SCENE = 0
@@ -114,12 +115,16 @@ def test_swap_attributes_gives_the_true_attributes_only(scene):
     assignment = match_tracks(perceived, truth)
     renamed = relabel(perceived, assignment)
     ids = {t.id: t.id for t in renamed.objects if t.id < 100}
+    belief = AttributeBelief.from_mappings({"red": 1.0}, {"metal": 1.0}, {"cube": 1.0}, support_frames=3)
+    renamed = replace(renamed, objects=tuple(replace(t, attribute_belief=belief) for t in renamed.objects))
     swapped = swap_attributes(renamed, truth, ids)
     for track in swapped.objects:
         if track.id >= 100:
+            assert track.attribute_belief == belief  # unmatched: perceived attributes and belief kept
             continue
         color, material, shape = truth.attributes[track.id]
         assert (track.color, track.material, track.shape.kind) == (color, material, shape)
+        assert track.attribute_belief is None  # the true attributes are certain
         original = next(t for t in renamed.objects if t.id == track.id)
         assert np.array_equal(track.positions, original.positions)
 

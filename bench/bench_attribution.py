@@ -58,6 +58,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from tqdm import tqdm
 
+from bench.bench_cached_answers import ungrounded_questions  # noqa: E402
 from bench.metrics import GroundTruth, score_world  # noqa: E402
 from perception.pipeline import perceive
 from physmind.local_server import local_server
@@ -164,6 +165,7 @@ def _track(template: ObjectTrack, object_id: int, rows: list[tuple[int, np.ndarr
         weights=np.array([r[4] for r in rows], dtype=float),
         color=template.color,
         material=template.material,
+        attribute_belief=template.attribute_belief,
     )
 
 
@@ -198,7 +200,9 @@ def swap_attributes(perceived: Observations, truth: Truth, assignment: dict[int,
             tracks.append(track)
             continue
         color, material, shape = truth.attributes[object_id]
-        tracks.append(replace(track, color=color, material=material, shape=default_shape(shape, DEFAULT_OBJECT_SIZE)))
+        # The true attributes are certain: no perceived belief goes with them.
+        tracks.append(replace(track, color=color, material=material, shape=default_shape(shape, DEFAULT_OBJECT_SIZE),
+                              attribute_belief=None))
     return replace(perceived, objects=tuple(tracks))
 
 
@@ -300,9 +304,10 @@ def _fit(observations: Observations, truth_path: Path, truth: Truth, candidates:
     }
 
 
-def attribute_scene(job: tuple[str, int]) -> dict:
-    """All rows of one scene; a failure is recorded per row, never raised."""
+def attribute_scene(job: tuple) -> dict:
+    """The rows of one scene (job: (dataset, scene index[, rows to fit; default all])); a failure is recorded per row, never raised."""
     root, index = Path(job[0]), job[1]
+    wanted = set(job[2]) if len(job) > 2 else set(ROWS)
 
     name = f"{index:05d}"
     truth_path = root / "ground_truth" / f"scene_{name}.json"
@@ -332,6 +337,8 @@ def attribute_scene(job: tuple[str, int]) -> dict:
         variants["swap entry/exit"] = (swap_entry_exit(perceived, truth, ids), None)
         variants["swap collisions"] = (perceived, true_candidates(perceived, truth))
     for row, (observations, candidates) in variants.items():
+        if row not in wanted:
+            continue
         try:
             result["rows"][row] = _fit(observations, truth_path, truth, candidates)
         except Exception as error:  # noqa: BLE001
@@ -345,6 +352,8 @@ def attribute_scene(job: tuple[str, int]) -> dict:
 def identification_table(results: list[dict]) -> str:
     lines = ["| row | worlds | observed-window RMSE median (m) | p90 (m) | observed collision recall | fit s median |", "|---|---|---|---|---|---|"]
     for row in ROWS:
+        if not any(row in r["rows"] for r in results):
+            continue
         fits = [r["rows"][row] for r in results if row in r["rows"] and "error" not in r["rows"][row]]
         if not fits:
             continue
@@ -385,7 +394,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--cache", type=Path, default=None, help="keep per-scene results (scene_XXXXX.json) here and reuse them")
     parser.add_argument("--cached-only", action="store_true", help="report on the scenes already in --cache only (no new perception)")
     parser.add_argument("--json", type=Path, default=None, help="write the tables and per-scene reports here")
+    parser.add_argument("--rows", default=",".join(ROWS), help=f"comma-separated rows to fit and score (default all: {', '.join(ROWS)})")
     args = parser.parse_args(argv)
+    rows = [r.strip() for r in args.rows.split(",") if r.strip()]
+    unknown = [r for r in rows if r not in ROWS]
+    if unknown:
+        raise SystemExit(f"--rows: unknown row(s) {unknown}; expected among {list(ROWS)}")
 
 
     entries = load_dataset(args.data, limit=args.limit)
@@ -401,7 +415,7 @@ def main(argv: list[str] | None = None) -> int:
         if cached is not None and cached.is_file():
             results[entry.scene_index] = json.loads(cached.read_text())
         else:
-            todo.append((str(args.data), entry.scene_index))
+            todo.append((str(args.data), entry.scene_index, tuple(rows)))
 
     def keep(result: dict) -> None:
         results[result["scene"]] = result
@@ -421,14 +435,19 @@ def main(argv: list[str] | None = None) -> int:
                     bar.update()
 
     ordered = [results[e.scene_index] for e in entries]
-    tables = {}
+    tables, ungrounded = {}, {}
     with local_server() as url, ToolClient(url) as client:
-        for row in ROWS:
+        for row in rows:
             worlds = {r["scene"]: r["rows"][row]["world"] for r in ordered if row in r["rows"] and "world" in r["rows"][row]}
             infos = {r["scene"]: {"error": r["rows"].get(row, {}).get("error") or r.get("perceive_error", "no world")} for r in ordered if r["scene"] not in worlds}
-            tables[row] = evaluate(entries, worlds, client, ExecutorConfig(mode="execute"), progress=False, build_info=infos).table()
+            evaluated = evaluate(entries, worlds, client, ExecutorConfig(mode="execute"), progress=False, build_info=infos)
+            tables[row] = evaluated.table()
+            ungrounded[row] = ungrounded_questions(evaluated.records)
     print("\n## accuracy (%), per question / per option")
     print(format_table(tables))
+    print("\n## questions with a reference not grounded (question or an option), per row")
+    for row, count in ungrounded.items():
+        print(f"{row}: {count} of {sum(len(e.questions) for e in entries)}")
     print("\n## points won back over from-video by each swap (per question / per option)")
     print(gains_table(tables))
     print("\n## identification report per row (against MuJoCo, observed window)")

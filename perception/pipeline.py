@@ -17,7 +17,7 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from tqdm import tqdm
 
-from perception.attributes import color_of, material_of
+from perception.attributes import color_of, color_probabilities, color_votes, material_of, material_probabilities, shape_probabilities
 from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
 from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, pixel_hue_labels
@@ -26,7 +26,7 @@ from perception.types import NEUTRAL, Attributes, Detection, FrameSegments, Lift
 from perception.video import read_video
 from world.camera import backproject_to_height, centre_in_view
 from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape
-from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, SHAPE_KINDS, Camera
+from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, SHAPE_KINDS, AttributeBelief, Camera
 
 MAX_ATTRIBUTE_FRAMES = 6  # isolated frames used to decide shape (a fit per frame and primitive)
 MAX_APPEARANCE_FRAMES = 16  # isolated frames used to decide colour / material (cheap per frame)
@@ -89,7 +89,9 @@ class PrimitiveLifter:
     def __init__(self, object_size: float = DEFAULT_OBJECT_SIZE) -> None:
         self.size = object_size
 
-    def decide_shape(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> tuple[str, float]:
+    def decide_shape(self, camera: Camera, track: TrackState, segments: list[FrameSegments],
+                     frames_used: list[int]) -> tuple[str, float, float, dict[str, float]]:
+        """(best kind, its margin over the second, its mean overlap, mean overlap per kind)."""
         scores = {kind: [] for kind in SHAPE_KINDS}
         for frame in frames_used:
             det = track.detections[frame]
@@ -100,7 +102,7 @@ class PrimitiveLifter:
             scores["cube"].append(fit_cube(camera, start, self.size, labels, det).score)
         means = {kind: float(np.mean(v)) if v else 0.0 for kind, v in scores.items()}
         ranked = sorted(means, key=means.get, reverse=True)
-        return ranked[0], means[ranked[0]] - means[ranked[1]], means[ranked[0]]
+        return ranked[0], means[ranked[0]] - means[ranked[1]], means[ranked[0]], means
 
     def lift(self, frames: np.ndarray, segments: list[FrameSegments], tracks: list[TrackState],
              camera: Camera, *, progress: bool = False) -> list[LiftedTrack]:
@@ -111,15 +113,18 @@ class PrimitiveLifter:
         for track in iterator:
             isolated = _isolated_frames(track, segments)
             basis = _spread(isolated, MAX_ATTRIBUTE_FRAMES) or _spread(sorted(track.detections), MAX_ATTRIBUTE_FRAMES)
-            kind, margin, shape_score = self.decide_shape(camera, track, segments, basis)
+            kind, margin, shape_score, overlaps = self.decide_shape(camera, track, segments, basis)
             if shape_score < MIN_SHAPE_SCORE:  # no primitive of the known size explains it: a fragment, not an object
                 continue
             appearance_frames = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
             detections = [track.detections[f] for f in appearance_frames]
-            color = color_of(detections, frames)
+            votes = color_votes(detections, frames)
+            color = color_of(detections, frames, votes)
             material, metal_probability = material_of(detections, frames, segments, color, kind)
             attributes = Attributes(color=color, shape=kind, material=material, confidence=float(np.clip(margin * 5, 0, 1)),
-                                    metal_probability=metal_probability, shape_score=shape_score)
+                                    metal_probability=metal_probability, shape_score=shape_score,
+                                    color_probabilities=color_probabilities(votes), shape_probabilities=shape_probabilities(overlaps),
+                                    material_probabilities=material_probabilities(metal_probability))
             frame_ids, positions, yaws, weights = [], [], [], []
             previous: Fit | None = None
             reference: Detection | None = None  # the detection the previous fit was computed on
@@ -380,6 +385,16 @@ def check_frames(frames: np.ndarray, camera: Camera) -> None:
         raise ValueError("video: nothing moves (every frame equals the video's median image): no moving object to perceive")
 
 
+def attribute_belief(track: LiftedTrack) -> AttributeBelief | None:
+    """The track's attribute probabilities as a world belief (None when the lifter gave none);
+    support_frames: frames with a usable position (weight > 0)."""
+    attributes = track.attributes
+    if not (attributes.color_probabilities and attributes.material_probabilities and attributes.shape_probabilities):
+        return None
+    return AttributeBelief.from_mappings(attributes.color_probabilities, attributes.material_probabilities,
+                                         attributes.shape_probabilities, int(np.count_nonzero(track.weights > 0)))
+
+
 def perceive_frames(frames: np.ndarray, camera: Camera, *, fps: float = 25.0, progress: bool = False,
                     segmenter: Segmenter | None = None, tracker: Tracker | None = None, lifter: Lifter | None = None,
                     object_size: float = DEFAULT_OBJECT_SIZE) -> tuple[Observations, dict]:
@@ -404,7 +419,8 @@ def perceive_frames(frames: np.ndarray, camera: Camera, *, fps: float = 25.0, pr
     lifted = timed("lift", lambda: (lifter or PrimitiveLifter(object_size)).lift(frames, segments, tracks, camera, progress=progress))
     objects = tuple(
         ObjectTrack(id=t.id, shape=default_shape(t.attributes.shape, object_size), frames=t.frames, positions=t.positions,
-                    yaw=t.yaw, visible=t.visible, weights=t.weights, color=t.attributes.color, material=t.attributes.material)
+                    yaw=t.yaw, visible=t.visible, weights=t.weights, color=t.attributes.color, material=t.attributes.material,
+                    attribute_belief=attribute_belief(t))
         for t in lifted
     )
     if not objects:

@@ -7,7 +7,7 @@ z up, floor z = 0 (as world.types.Camera).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Mapping, Protocol
 
 import numpy as np
 
@@ -99,12 +99,18 @@ class MaterialCues:
 
 @dataclass(frozen=True)
 class Attributes:
+    """A track's decided attributes and, per attribute, a probability for each value
+    (perception.attributes.*_probabilities; empty: not computed)."""
+
     color: str
     shape: str
     material: str
     confidence: float  # 0..1, how clearly the best shape beat the others
     metal_probability: float = 0.5  # P(metal) of the material rule (perception.attributes.metal_probability)
     shape_score: float = 0.0  # mean silhouette overlap J of the chosen shape on isolated frames
+    color_probabilities: Mapping[str, float] = field(default_factory=dict)  # COLORS name -> p
+    shape_probabilities: Mapping[str, float] = field(default_factory=dict)  # SHAPE_KINDS name -> p
+    material_probabilities: Mapping[str, float] = field(default_factory=dict)  # MATERIALS name -> p
 
 
 @dataclass(frozen=True)

@@ -23,8 +23,8 @@ Verdict = Literal["correct", "wrong"]
 class ChoiceAnswer:
     """The verdict on one choice.
 
-    verdict: None when undecided (``error`` says why: unparsed text, a
-    reference that is ambiguous or unmatched, a program that does not apply).
+    verdict: None when undecided (``error`` says why: unparsed text, a world
+    without objects, a program that does not apply).
     facts: human-readable statements the verdict rests on.
     tool_calls: indices into the video's tool-call log.
     """
@@ -96,7 +96,8 @@ def refuse_false_premise(answer: Answer, objects: Sequence[WorldObject]) -> Answ
     """``answer`` unless its question names an object the world does not have.
 
     "What happens if the red cube is removed?" in a world without a red cube
-    has no true answer: every choice would be judged on a premise that does
+    (its attributes taken as given, no perceived beliefs: planner.grounding's
+    ``absent``) has no true answer: every choice would be judged on a premise that does
     not hold. Then the answer says so plainly (``error`` starts with "false
     premise") and judges no choice. Choices naming absent objects are not
     affected (they are simply not among the world's events).
@@ -107,7 +108,7 @@ def refuse_false_premise(answer: Answer, objects: Sequence[WorldObject]) -> Answ
             program = parse_question(answer.question).program
         except ParseError:
             return answer
-    missing = [g for g in (ground(q, objects) for q in program_references(program)) if g.status == "unmatched"]
+    missing = [g for g in (ground(q, objects) for q in program_references(program)) if g.absent or g.status == "undecided"]
     if not missing:
         return answer
     names = " and ".join(g.reference for g in missing)

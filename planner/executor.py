@@ -22,7 +22,9 @@ run on the world, the executor says why and decides only what follows without
 a guess: an object the world lacks (never in view) takes part in no event;
 an option's event the rollout lacks is not listed; an explained event that
 occurs several times is decided by its first occurrence where the occurrences disagree (stated as uncertain);
-ambiguous references stay undecided (docs/planner.md). The
+a reference that matches several objects or none is decided by the attribute
+probabilities (planner.grounding), the choice and its probability stated in
+the facts (docs/planner.md). The
 ``trajectory_only`` mode is the ablation of the paper's Figure 4: no
 intervention is executed and a counterfactual is answered from the factual
 events with the removed object's events dropped.
@@ -38,7 +40,7 @@ from typing import Any, Iterable, Literal, Mapping, Sequence
 from planner.answer import Answer, ChoiceAnswer, readable
 from planner.client import ToolCallError, WorldHandle
 from planner.grammar import ParseError
-from planner.grounding import Grounding, WorldObject, failed, ground_program, objects_from_summary
+from planner.grounding import Grounding, WorldObject, bound_ids, failed, ground_program, objects_from_summary
 from planner.parser import parse_choice, parse_question
 from planner.program import EventRecord, ObjectRecord, ProgramError, ProgramScene, causal_ancestors, execute
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
@@ -276,10 +278,9 @@ class VideoExecutor:
             return Answer(question, question_type, program, undecided, method=method, error=str(error), seconds=time.perf_counter() - started)
         bad = failed(groundings)
         # A counterfactual that removes an object the world does not contain (it was never
-        # observed) changes nothing: the factual events answer it. Any other failure is reported.
-        absent_removal = (bool(bad) and all(g.status == "unmatched" for g in bad) and _counterfactual_form(program)
-                          and len(groundings) == 1)
-        if bad and not absent_removal:
+        # observed) changes nothing: the factual events answer it.
+        absent_removal = len(groundings) == 1 and groundings[0].absent and _counterfactual_form(program)
+        if bad:
             message = "; ".join(g.message() for g in bad)
             undecided = tuple(ChoiceAnswer(k, text, None if p is None else tuple(p), None, error=f"question reference: {message}")
                               for k, (text, p, _) in enumerate(choices))
@@ -288,7 +289,8 @@ class VideoExecutor:
 
         # Fetch what this question type needs, then build the interpreter's scene.
         shared_calls: list[int] = [self._summary_call] if self._summary_call is not None else []
-        facts: list[str] = []
+        facts: list[str] = [f"grounding: {g.message()}" for g in groundings if g.status != "unique" and not absent_removal]
+        bound = bound_ids(groundings)
         try:
             self.base_events()
             shared_calls.append(self._base_call)  # type: ignore[arg-type]
@@ -304,7 +306,7 @@ class VideoExecutor:
             if absent_removal:
                 removed = None
                 reference = tuple(e for e in scene.events if e.frame is not None and e.frame < scene.observed_frames)
-                facts.append(f"{bad[0].message()}: an object the world does not contain (never observed) cannot change it, "
+                facts.append(f"{groundings[0].message()}: an object the world does not contain (never observed) cannot change it, "
                              f"so the factual events before frame {scene.observed_frames} answer: "
                              + (", ".join(describe_event(e) for e in reference) or "none"))
             else:
@@ -313,23 +315,23 @@ class VideoExecutor:
                     events, rollout_id, calls, note = self.counterfactual(removed)
                     shared_calls.extend(calls)
                     facts.append(note)
-                targets = _explained_event_candidates(program, scene)
+                targets = _explained_event_candidates(program, scene, bound)
                 if targets is not None and len(targets) > 1:
                     return self._answer_each_occurrence(question, question_type, program, choices, scene, targets,
                                                         groundings, shared_calls, facts, method, started)
-                reference, reference_fact = self._reference_list(program, scene)
+                reference, reference_fact = self._reference_list(program, scene, bound)
                 if reference_fact:
                     facts.append(reference_fact)
         except (ToolCallError, ProgramError) as error:
             undecided = tuple(ChoiceAnswer(k, text, None if p is None else tuple(p), None, error=str(error)) for k, (text, p, _) in enumerate(choices))
             return Answer(question, question_type, program, undecided, method=method, groundings=tuple(groundings),
-                          error=str(error), tool_calls=tuple(shared_calls), seconds=time.perf_counter() - started)
+                          facts=tuple(facts), error=str(error), tool_calls=tuple(shared_calls), seconds=time.perf_counter() - started)
 
         answers = []
         all_groundings = list(groundings)
         for k, (text, choice_program, parse_error) in enumerate(choices):
             answers.append(self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
-                                               removed, all_groundings, membership_only=absent_removal))
+                                               removed, all_groundings, membership_only=absent_removal, question_bound=bound))
         used = sorted({*shared_calls, *(i for a in answers for i in a.tool_calls)})
         distinct = tuple({(g.reference, g.object_ids): g for g in all_groundings}.values())
         return Answer(question, question_type, program, tuple(answers), method=method, groundings=distinct,
@@ -367,12 +369,14 @@ class VideoExecutor:
         return Answer(question, question_type, program, tuple(answers), method=method, groundings=distinct, facts=tuple(facts),
                       tool_calls=tuple(sorted(set(shared_calls))), seconds=time.perf_counter() - started)
 
-    def _reference_list(self, program: tuple[str, ...], scene: ProgramScene) -> tuple[tuple[EventRecord, ...] | None, str | None]:
-        """The event list a ``... belong_to [negate]`` question tests its choices against, and a fact naming it."""
+    def _reference_list(self, program: tuple[str, ...], scene: ProgramScene,
+                        bound: list[int] | None) -> tuple[tuple[EventRecord, ...] | None, str | None]:
+        """The event list a ``... belong_to [negate]`` question tests its choices against, and a fact naming it
+        (bound: the grounded object id of each of the program's references)."""
         tail = program[:-1] if program and program[-1] == "negate" else program
         if not tail or tail[-1] != "belong_to":
             return None, None
-        value = execute(list(tail[:-1]), scene)
+        value = execute(list(tail[:-1]), scene, bound=bound)
         if not isinstance(value, tuple):
             return None, None
         events = tuple(e for e in value if isinstance(e, EventRecord))
@@ -388,9 +392,10 @@ class VideoExecutor:
     def _answer_choice(self, k: int, text: str, choice_program: Sequence[str] | None, parse_error: str | None,
                        program: tuple[str, ...], question_type: str, scene: ProgramScene,
                        reference: tuple[EventRecord, ...] | None, removed: int | None, all_groundings: list[Grounding],
-                       membership_only: bool = False) -> ChoiceAnswer:
+                       membership_only: bool = False, question_bound: list[int] | None = None) -> ChoiceAnswer:
         """One verdict. ``membership_only``: the question program cannot run (its removed object is
         absent), so the option is tested against ``reference`` directly, as ``belong_to`` does.
+        ``question_bound``: the grounded object ids of the question program's references.
         The stages: parse -> ground (:func:`_ungrounded_option`) -> run (:meth:`_run_option`, or
         :func:`_option_from_selection` when the program does not apply) -> facts per value kind
         (:data:`OPTION_FACTS`) -> corroboration."""
@@ -401,15 +406,20 @@ class VideoExecutor:
         all_groundings.extend(groundings)
         negated = bool(program) and program[-1] == "negate"
         bad = failed(groundings)
-        if bad:
-            return _ungrounded_option(k, text, choice_program, bad, reference, negated)
+        absent = [g for g in groundings if g.absent]
+        if bad or (absent and reference is not None):
+            return _ungrounded_option(k, text, choice_program, bad or absent, reference, negated)
+        bound = bound_ids(groundings)
+        inferred = [f"grounding: {g.message()}" for g in groundings if g.status != "unique"]
         try:
-            value, result = self._run_option(choice_program, program, scene, reference, negated, membership_only)
+            value, result = self._run_option(choice_program, program, scene, reference, negated, membership_only,
+                                             bound, question_bound)
         except ProgramError as error:
-            return _option_from_selection(k, text, choice_program, scene, reference, negated, error)
+            selected = _option_from_selection(k, text, choice_program, scene, reference, negated, error, bound)
+            return replace(selected, facts=(*inferred, *selected.facts))
         if result not in ("yes", "no"):
             return ChoiceAnswer(k, text, choice_program, None, error=f"the program gives {result!r}, not yes/no")
-        facts: list[str] = []
+        facts: list[str] = list(inferred)
         calls: list[int] = []
         if reference is not None:
             describe = OPTION_FACTS.get(type(value))
@@ -426,11 +436,14 @@ class VideoExecutor:
 
     @staticmethod
     def _run_option(choice_program: tuple[str, ...], program: tuple[str, ...], scene: ProgramScene,
-                    reference: tuple[EventRecord, ...] | None, negated: bool, membership_only: bool) -> tuple[Any, Any]:
-        """(the option's value, "yes"/"no" or what the program gave); ProgramError when it does not apply."""
-        value = execute(list(choice_program), scene)
+                    reference: tuple[EventRecord, ...] | None, negated: bool, membership_only: bool,
+                    choice_bound: list[int] | None, question_bound: list[int] | None) -> tuple[Any, Any]:
+        """(the option's value, "yes"/"no" or what the program gave); ProgramError when it does not apply.
+        choice_bound / question_bound: the grounded object ids of the references of each program."""
+        value = execute(list(choice_program), scene, bound=choice_bound)
         if not membership_only:
-            return value, execute(list(choice_program) + list(program), scene)
+            both = None if choice_bound is None or question_bound is None else [*choice_bound, *question_bound]
+            return value, execute(list(choice_program) + list(program), scene, bound=both)
         if reference is None or not isinstance(value, (ObjectRecord, EventRecord)):
             raise ProgramError("the option is neither an object nor an event")
         listed = (any(value.id in e.objects for e in reference) if isinstance(value, ObjectRecord)
@@ -482,9 +495,9 @@ OPTION_FACTS: dict[type, Any] = {ObjectRecord: _object_facts, EventRecord: _even
 
 def _ungrounded_option(k: int, text: str, choice_program: tuple[str, ...], bad: Sequence[Grounding],
                        reference: tuple[EventRecord, ...] | None, negated: bool) -> ChoiceAnswer:
-    """An option whose reference fails: undecided when ambiguous (or nothing to test against); an object
-    the world does not contain (never observed) takes part in no event."""
-    if reference is None or any(g.status == "ambiguous" for g in bad):
+    """An option whose reference names no object of the world: undecided when the world has no objects (or
+    nothing to test against); an object the world does not contain (never observed) takes part in no event."""
+    if reference is None or any(g.status == "undecided" for g in bad):
         return ChoiceAnswer(k, text, choice_program, None, error="; ".join(g.message() for g in bad))
     facts = [f"{g.message()}: an object the world does not contain takes part in none of its events" for g in bad]
     if negated:
@@ -493,10 +506,11 @@ def _ungrounded_option(k: int, text: str, choice_program: tuple[str, ...], bad: 
 
 
 def _option_from_selection(k: int, text: str, choice_program: tuple[str, ...], scene: ProgramScene,
-                           reference: tuple[EventRecord, ...] | None, negated: bool, error: ProgramError) -> ChoiceAnswer:
+                           reference: tuple[EventRecord, ...] | None, negated: bool, error: ProgramError,
+                           bound: list[int] | None = None) -> ChoiceAnswer:
     """An event option whose program does not apply (its event is absent, or occurs several times):
-    decided by membership of the events it selects."""
-    candidates = _event_selection(choice_program, scene)
+    decided by membership of the events it selects (bound: the grounded ids of its references)."""
+    candidates = _event_selection(choice_program, scene, bound)
     if candidates is None or reference is None:
         return ChoiceAnswer(k, text, choice_program, None, error=f"program does not apply: {error}")
     if not candidates:
@@ -513,13 +527,14 @@ def _option_from_selection(k: int, text: str, choice_program: tuple[str, ...], s
     return ChoiceAnswer(k, text, choice_program, "correct" if listed != negated else "wrong", facts=tuple(facts))
 
 
-def _event_selection(choice_program: tuple[str, ...], scene: ProgramScene) -> tuple[EventRecord, ...] | None:
+def _event_selection(choice_program: tuple[str, ...], scene: ProgramScene,
+                     bound: list[int] | None = None) -> tuple[EventRecord, ...] | None:
     """The events an event choice (``events|all_events ... filter_collision|in|out unique``) selects before
     ``unique``; None for other choices or when the selection itself fails."""
     if len(choice_program) < 2 or choice_program[0] not in ("events", "all_events", "unseen_events") or choice_program[-1] != "unique":
         return None
     try:
-        candidates = execute(list(choice_program[:-1]), scene)
+        candidates = execute(list(choice_program[:-1]), scene, bound=bound)
     except ProgramError:
         return None
     if not isinstance(candidates, tuple) or any(not isinstance(c, EventRecord) for c in candidates):
@@ -527,14 +542,16 @@ def _event_selection(choice_program: tuple[str, ...], scene: ProgramScene) -> tu
     return candidates
 
 
-def _explained_event_candidates(program: Sequence[str], scene: ProgramScene) -> tuple[EventRecord, ...] | None:
+def _explained_event_candidates(program: Sequence[str], scene: ProgramScene,
+                                bound: list[int] | None = None) -> tuple[EventRecord, ...] | None:
     """For ``events <E> filter_ancestor belong_to [negate]`` with E = ``events ... unique``: the events E
-    selects before ``unique`` (None for other programs or when the selection fails)."""
+    selects before ``unique`` (None for other programs or when the selection fails; bound: the grounded
+    ids of the program's references)."""
     tail = list(program[:-1]) if program and program[-1] == "negate" else list(program)
     if len(tail) < 5 or tail[0] != "events" or tail[-2:] != ["filter_ancestor", "belong_to"] or tail[-3] != "unique" or tail[1] != "events":
         return None
     try:
-        candidates = execute(tail[1:-3], scene)
+        candidates = execute(tail[1:-3], scene, bound=bound)
     except ProgramError:
         return None
     if not isinstance(candidates, tuple) or any(not isinstance(c, EventRecord) for c in candidates):

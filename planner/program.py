@@ -405,15 +405,56 @@ def check_program(tokens: Sequence[str], inputs: Sequence[str] = ()) -> tuple[st
     return tuple(stack)
 
 
-def execute(tokens: Sequence[str], scene: ProgramScene) -> object:
+ATTRIBUTE_FILTERS: Mapping[str, str] = {"filter_color": "color", "filter_material": "material", "filter_shape": "shape"}
+
+
+def reference_spans(tokens: Sequence[str]) -> list[tuple[int, int]]:
+    """(start, end) token positions of each object reference, in order: a run
+    ``objects (value filter_color|filter_material|filter_shape)* unique`` from
+    its ``objects`` (start) to its ``unique`` (end, inclusive)."""
+    spans = []
+    k = 0
+    while k < len(tokens):
+        if tokens[k] != "objects":
+            k += 1
+            continue
+        j = k + 1
+        while j + 1 < len(tokens) and tokens[j + 1] in ATTRIBUTE_FILTERS:
+            j += 2
+        if j < len(tokens) and tokens[j] == "unique":
+            spans.append((k, j))
+        k = j + 1 if j > k + 1 else k + 1
+    return spans
+
+
+def execute(tokens: Sequence[str], scene: ProgramScene, bound: Sequence[int] | None = None) -> object:
     """Run a program on a scene; returns the single value it leaves.
 
+    bound: the object id each object reference (:func:`reference_spans`, in
+    order) stands for, decided beforehand (e.g. by grounding under perceived
+    attributes); each such run then pushes that object instead of filtering
+    by attributes. None: every reference is resolved by its filters.
+
     Raises ProgramError when the program is malformed or does not apply to the
-    scene (e.g. ``unique`` on zero or several matches).
+    scene (e.g. ``unique`` on zero or several matches, or ``bound`` does not
+    give one id per reference).
     """
     runtime = _Runtime(scene)
     stack: list[object] = []
+    bound_at: dict[int, int] = {}  # start of a reference -> its object id
+    inside: set[int] = set()  # the other positions of bound references (not run)
+    if bound is not None:
+        spans = reference_spans(tokens)
+        if len(spans) != len(bound):
+            raise ProgramError(f"bound: {len(bound)} object id(s) for {len(spans)} object reference(s)")
+        bound_at = {start: int(object_id) for (start, _), object_id in zip(spans, bound)}
+        inside = {k for start, end in spans for k in range(start + 1, end + 1)}
     for position, token in enumerate(tokens):
+        if position in inside:
+            continue
+        if position in bound_at:
+            stack.append(scene.object(bound_at[position]))
+            continue
         if token not in SIGNATURES:
             literal_type(token)
             stack.append(int(token) if token.isdigit() else (None if token == "null" else token))

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from typing import Any, Mapping
 
+from world.io import attribute_belief_to_dict
 from world.timebase import frame_of
 
 from tools.common import fit_error, r, vec
@@ -23,6 +24,12 @@ def _size(body: Any) -> dict[str, float]:
     return {"radius": r(shape.radius)}
 
 
+def _belief(belief: Any) -> dict[str, Any]:
+    """The body's attribute probabilities, rounded as every number of the result."""
+    document = attribute_belief_to_dict(belief)
+    return {name: ({value: r(p) for value, p in entry.items()} if isinstance(entry, dict) else entry) for name, entry in document.items()}
+
+
 def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
     world = session.world
     objects = [
@@ -40,6 +47,7 @@ def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
             "initial_position": vec(body.initial.position),
             "initial_velocity": vec(body.initial.velocity),
             **({} if body.rolling_friction is None else {"rolling_friction": r(body.rolling_friction)}),
+            **({} if body.attribute_belief is None else {"attribute_belief": _belief(body.attribute_belief)}),
         }
         for body in world.bodies
     ]
@@ -66,7 +74,8 @@ TOOL = ToolSpec(
     order=9,
     description=(
         "Summarise the world: every object's id, shape, color, material, size and fitted parameters "
-        "(mass, friction, restitution, entry frame, initial state), the video's fps and observed frames, "
+        "(mass, friction, restitution, entry frame, initial state; for a world perceived from video also "
+        "attribute_belief, the probability of each colour, material and shape value), the video's fps and observed frames, "
         "the ids of the registered rollouts, and the collisions seen in the video (observed_collisions, "
         "null for a world not fitted to a video). Call it first to ground object descriptions to ids."
     ),

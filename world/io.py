@@ -18,7 +18,7 @@ import numpy as np
 from jsonschema.exceptions import best_match
 
 from schemas import read_schema
-from world.types import Anchor, Body, BodyState, Camera, Edit, Event, Rollout, Shape, World
+from world.types import ATTRIBUTE_VALUES, Anchor, AttributeBelief, Body, BodyState, Camera, Edit, Event, Rollout, Shape, World
 
 WORLD_FORMAT = "physmind.world/1"
 ROLLOUT_FORMAT = "physmind.rollout/1"
@@ -82,7 +82,25 @@ def _body_to_dict(body: Body) -> dict[str, Any]:
         **({} if body.rolling_friction is None else {"rolling_friction": float(body.rolling_friction)}),
         # Written only when set (friction between bodies; older documents read back unchanged).
         **({} if body.contact_friction is None else {"contact_friction": float(body.contact_friction)}),
+        # Written only for perceived bodies (older documents and oracle worlds read back unchanged).
+        **({} if body.attribute_belief is None else {"attribute_belief": attribute_belief_to_dict(body.attribute_belief)}),
     }
+
+
+def attribute_belief_to_dict(belief: AttributeBelief) -> dict[str, Any]:
+    """{"color": {value: p}, "material": {...}, "shape": {...}, "support_frames": n}: the JSON form of a belief."""
+    return {**{name: belief.distribution(name) for name in ATTRIBUTE_VALUES}, "support_frames": belief.support_frames}
+
+
+def attribute_belief_from_dict(document: Mapping[str, Any] | None) -> AttributeBelief | None:
+    """The inverse of :func:`attribute_belief_to_dict` (None stays None); ValueError names the field."""
+    if document is None:
+        return None
+    missing = [name for name in ATTRIBUTE_VALUES if not isinstance(document.get(name) if isinstance(document, Mapping) else None, Mapping)]
+    if missing:
+        raise ValueError(f"attribute_belief: {', '.join(missing)} must be objects mapping each value to its probability")
+    return AttributeBelief.from_mappings(document["color"], document["material"], document["shape"],
+                                         document.get("support_frames", 0))
 
 
 def camera_to_dict(camera: Camera) -> dict[str, Any]:
@@ -194,7 +212,8 @@ def world_from_dict(document: Mapping[str, Any]) -> World:
                 initial=_state_from_dict(st),
                 mass=b["mass"], friction=b["friction"], restitution=b["restitution"],
                 color=b["color"], material=b["material"], active_until=b["active_until"],
-                rolling_friction=b.get("rolling_friction"), contact_friction=b.get("contact_friction")))
+                rolling_friction=b.get("rolling_friction"), contact_friction=b.get("contact_friction"),
+                attribute_belief=attribute_belief_from_dict(b.get("attribute_belief"))))
         except ValueError as error:
             raise ValueError(f"bodies[{index}]: {error}") from None
     camera = None if document["camera"] is None else camera_from_dict(document["camera"])

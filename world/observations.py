@@ -15,8 +15,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from world.io import camera_from_dict, camera_to_dict, read_json_file
-from world.types import COLORS, MATERIALS, SHAPE_KINDS, Camera, Shape
+from world.io import attribute_belief_from_dict, attribute_belief_to_dict, camera_from_dict, camera_to_dict, read_json_file
+from world.types import COLORS, MATERIALS, SHAPE_KINDS, AttributeBelief, Camera, Shape
 
 # CLEVRER uses one object size; the generator (synth/) writes SI metres with
 # this size, and real CLEVRER annotations need the caller's own dimensions.
@@ -44,6 +44,9 @@ class ObjectTrack:
     visible: (T,) bool, the object is inside the camera view.
     weights: (T,) float64 in [0, 1], confidence of each position
     (0 for frames that must not count, e.g. out of view).
+    color, material: the decided attributes (None: unknown).
+    attribute_belief: perception's probability of each attribute value
+    (None: the attributes are taken as given, e.g. oracle annotations).
     """
 
     id: int
@@ -55,9 +58,12 @@ class ObjectTrack:
     weights: np.ndarray
     color: str | None = None
     material: str | None = None
+    attribute_belief: AttributeBelief | None = None
 
     def __post_init__(self) -> None:
         where = f"object {self.id}"
+        if self.attribute_belief is not None and not isinstance(self.attribute_belief, AttributeBelief):
+            raise ValueError(f"{where}: attribute_belief: expected an AttributeBelief or None, got {type(self.attribute_belief).__name__}")
         if not isinstance(self.id, (int, np.integer)) or isinstance(self.id, bool) or self.id < 0:
             raise ValueError(f"object id: expected an integer >= 0, got {self.id!r}")
         if self.color is not None and self.color not in COLORS:
@@ -232,6 +238,7 @@ class Observations:
                     weights=np.array([r.get("weight", 1.0) for r in records], dtype=np.float64),
                     color=entry.get("color"),
                     material=entry.get("material"),
+                    attribute_belief=attribute_belief_from_dict(entry.get("attribute_belief")),
                 )
             )
         camera = document.get("camera")
@@ -257,7 +264,10 @@ class Observations:
                 }
                 for f, p, y, vis, w in zip(track.frames, track.positions, track.yaw, track.visible, track.weights)
             ]
-            objects.append({"id": int(track.id), "color": track.color, "material": track.material, "shape": shape, "frames": frames})
+            entry = {"id": int(track.id), "color": track.color, "material": track.material, "shape": shape, "frames": frames}
+            if track.attribute_belief is not None:
+                entry["attribute_belief"] = attribute_belief_to_dict(track.attribute_belief)
+            objects.append(entry)
         return {
             "fps": self.fps,
             "num_frames": int(self.num_frames),

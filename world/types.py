@@ -145,6 +145,51 @@ class BodyState:
             object.__setattr__(self, "spin_velocity", tuple(float(v) for v in self.spin_velocity))
 
 
+# Attribute vocabulary per attribute name (the keys of an AttributeBelief).
+ATTRIBUTE_VALUES: dict[str, tuple[str, ...]] = {"color": COLORS, "material": MATERIALS, "shape": SHAPE_KINDS}
+BELIEF_SUM_TOLERANCE = 1e-6  # a distribution's probabilities must sum to 1 within this
+
+
+@dataclass(frozen=True)
+class AttributeBelief:
+    """What perception believes about one object's attributes: a probability per value.
+
+    color / material / shape: ((value, p), ...) over the attribute's vocabulary
+    (ATTRIBUTE_VALUES; values left out have p = 0), each p in [0, 1], summing
+    to 1. Build it with :meth:`from_mappings`. support_frames: frames the object
+    was seen in (>= 0), which tells a real object from a short duplicate track.
+    """
+
+    color: tuple[tuple[str, float], ...]
+    material: tuple[tuple[str, float], ...]
+    shape: tuple[tuple[str, float], ...]
+    support_frames: int = 0
+
+    @classmethod
+    def from_mappings(cls, color: Mapping[str, float], material: Mapping[str, float], shape: Mapping[str, float],
+                      support_frames: int = 0) -> "AttributeBelief":
+        return cls(tuple(color.items()), tuple(material.items()), tuple(shape.items()), support_frames)
+
+    def __post_init__(self) -> None:
+        for name, vocabulary in ATTRIBUTE_VALUES.items():
+            pairs = getattr(self, name)
+            _require(isinstance(pairs, tuple) and len(pairs) > 0, f"attribute_belief.{name}: expected (value, p) pairs, got {pairs!r}")
+            values = [pair[0] for pair in pairs]
+            _require(all(v in vocabulary for v in values), f"attribute_belief.{name}: values must be among {vocabulary}, got {values}")
+            _require(len(set(values)) == len(values), f"attribute_belief.{name}: a value is listed twice: {values}")
+            probabilities = [pair[1] for pair in pairs]
+            _require(all(_finite(p) and 0 <= p <= 1 for p in probabilities), f"attribute_belief.{name}: probabilities must be in [0, 1], got {probabilities}")
+            _require(abs(sum(probabilities) - 1.0) <= BELIEF_SUM_TOLERANCE, f"attribute_belief.{name}: probabilities must sum to 1, got {sum(probabilities)!r}")
+            object.__setattr__(self, name, tuple((str(v), float(p)) for v, p in pairs))
+        _require(isinstance(self.support_frames, (int, np.integer)) and not isinstance(self.support_frames, bool) and self.support_frames >= 0,
+                 f"attribute_belief.support_frames: expected an integer >= 0, got {self.support_frames!r}")
+        object.__setattr__(self, "support_frames", int(self.support_frames))
+
+    def distribution(self, name: str) -> dict[str, float]:
+        """value -> p of one attribute ("color", "material", "shape"); values not listed have p = 0."""
+        return dict(getattr(self, name))
+
+
 @dataclass(frozen=True)
 class Body:
     """One rigid object of a world.
@@ -177,6 +222,7 @@ class Body:
     active_until: float | None = None
     rolling_friction: float | None = None
     contact_friction: float | None = None
+    attribute_belief: AttributeBelief | None = None  # perception's probabilities per attribute value; None: not perceived
 
     def __post_init__(self) -> None:
         _require(isinstance(self.id, (int, np.integer)) and not isinstance(self.id, bool) and self.id >= 0, f"body.id: expected an integer >= 0, got {self.id!r}")
@@ -185,6 +231,8 @@ class Body:
         _require(_finite(self.restitution) and 0 <= self.restitution <= 1, f"body {self.id}: restitution must be in [0, 1], got {self.restitution!r}")
         _require(self.color is None or self.color in COLORS, f"body {self.id}: color: expected one of {COLORS}, got {self.color!r}")
         _require(self.material is None or self.material in MATERIALS, f"body {self.id}: material: expected one of {MATERIALS}, got {self.material!r}")
+        _require(self.attribute_belief is None or isinstance(self.attribute_belief, AttributeBelief),
+                 f"body {self.id}: attribute_belief: expected an AttributeBelief or None, got {type(self.attribute_belief).__name__}")
         if self.rolling_friction is not None:
             _require(self.shape.kind == "sphere", f"body {self.id}: rolling_friction applies to spheres only, not a {self.shape.kind}")
             _require(_finite(self.rolling_friction) and self.rolling_friction > 0, f"body {self.id}: rolling_friction must be a finite number > 0, got {self.rolling_friction!r}")

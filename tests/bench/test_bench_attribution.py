@@ -26,6 +26,7 @@ from bench.bench_attribution import (
     true_candidates,
 )
 from world.observations import Observations, default_shape
+from world.types import AttributeBelief
 
 DATA = Path(__file__).resolve().parents[2] / "tests" / "data" / "synth"
 SCENE = 0
@@ -114,12 +115,16 @@ def test_swap_attributes_gives_the_true_attributes_only(scene):
     assignment = match_tracks(perceived, truth)
     renamed = relabel(perceived, assignment)
     ids = {t.id: t.id for t in renamed.objects if t.id < 100}
+    belief = AttributeBelief.from_mappings({"red": 1.0}, {"metal": 1.0}, {"cube": 1.0}, support_frames=3)
+    renamed = replace(renamed, objects=tuple(replace(t, attribute_belief=belief) for t in renamed.objects))
     swapped = swap_attributes(renamed, truth, ids)
     for track in swapped.objects:
         if track.id >= 100:
+            assert track.attribute_belief == belief  # unmatched: perceived attributes and belief kept
             continue
         color, material, shape = truth.attributes[track.id]
         assert (track.color, track.material, track.shape.kind) == (color, material, shape)
+        assert track.attribute_belief is None  # the true attributes are certain
         original = next(t for t in renamed.objects if t.id == track.id)
         assert np.array_equal(track.positions, original.positions)
 
@@ -149,3 +154,27 @@ def test_true_candidates_are_the_observed_collisions(scene):
     assert sorted((c.bodies[0], c.bodies[1], c.frame) for c in candidates) == sorted(truth.collisions)
     for c in candidates:
         assert np.isclose(np.linalg.norm(c.normal), 1.0)
+
+
+def test_ungrounded_questions_counts_only_reference_failures():
+    """A question counts when its own reference or an undecided option's reference failed to ground; an option
+    undecided for another reason (a program that does not apply) does not."""
+    from bench.bench_cached_answers import ungrounded_questions
+    from planner.answer import Answer, ChoiceAnswer
+    from planner.evaluate import QuestionRecord
+
+    def record(error=None, choice_errors=(None,)):
+        choices = tuple(ChoiceAnswer(k, "c", None, None if e else "wrong", error=e) for k, e in enumerate(choice_errors))
+        return QuestionRecord(0, 0, "explanatory", ("wrong",) * len(choices), Answer("q", "explanatory", None, choices, error=error))
+
+    records = [record(error="cannot ground the question: the red cube: the world has no objects"),
+               record(choice_errors=("the green object is ambiguous: objects [5, 7] all match", None)),
+               record(choice_errors=("token 7 (unique): unique: expected exactly one item, got 0",)),
+               record()]
+    assert ungrounded_questions(records) == 2
+
+
+def test_unknown_rows_are_refused():
+    from bench.bench_attribution import main
+    with pytest.raises(SystemExit, match="unknown row"):
+        main(["/nonexistent", "--rows", "from video,swap colours"])

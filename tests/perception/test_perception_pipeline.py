@@ -66,6 +66,22 @@ def test_attributes_match_the_generator(perceived):
         assert track.shape.kind == truth[object_id]["shape"], f"scene {index} object {object_id}"
 
 
+def test_attribute_beliefs_favour_the_true_values(perceived):
+    """Every perceived object carries probabilities; on these scenes (colour and shape read right above)
+    the true colour and shape are the most probable values and the decided material the likelier one."""
+    index, camera, observations, lifted, masks, annotation = perceived
+    truth = {o["object_id"]: o for o in annotation["object_property"]}
+    for object_id, pid in _matching(camera, lifted, masks).items():
+        track = observations.object(pid)
+        belief = track.attribute_belief
+        assert belief is not None and belief.support_frames == int((track.weights > 0).sum())
+        for name in ("color", "shape"):
+            distribution = belief.distribution(name)
+            assert max(distribution, key=distribution.get) == truth[object_id][name], f"scene {index} object {object_id} {name}"
+        material = belief.distribution("material")
+        assert material[track.material] >= 0.5, f"scene {index} object {object_id}"
+
+
 def test_lifting_error_within_bound(perceived):
     index, camera, observations, lifted, masks, annotation = perceived
     whole = {(e["frame_index"], o["object_id"]) for e in masks for o in e["objects"]

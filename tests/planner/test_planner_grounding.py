@@ -1,4 +1,5 @@
-"""Reference grounding: attribute phrases -> object ids; ambiguity and misses are reported, never guessed."""
+"""Reference grounding: attribute phrases -> object ids; several or no matches are decided by the attribute
+probabilities, the choice and its probability stated; only a world without objects leaves a reference undecided."""
 
 from __future__ import annotations
 
@@ -10,8 +11,12 @@ from planner.executor import VideoExecutor
 from planner.grounding import (
     AttributeQuery,
     WorldObject,
+    bound_ids,
+    failed,
     ground,
     ground_phrase,
+    ground_program,
+    ground_references,
     objects_from_summary,
     parse_object_phrase,
     program_references,
@@ -48,27 +53,75 @@ def test_parse_object_phrase_rejects(text, message):
 
 
 @pytest.mark.parametrize(
-    "text, status, ids, uncertain",
+    "text, status, ids, uncertain, matches, absent",
     [
-        ("the rubber cube", "ambiguous", (1, 2), ()),
-        ("the red rubber cube", "unique", (1,), ()),
-        ("the green object", "unique", (2,), (3,)),  # 3's colour is unknown: reported, not counted
-        ("the sphere", "unique", (0,), ()),
-        ("the red object", "ambiguous", (0, 1), (3,)),
-        ("the yellow cube", "unmatched", (), ()),
-        ("the metal cylinder", "unique", (3,), ()),
-        ("the blue cylinder", "unmatched", (), (3,)),
+        ("the rubber cube", "inferred", (1,), (), (1, 2), False),  # two match: decided (equal evidence: the lower id), stated
+        ("the red rubber cube", "unique", (1,), (), (1,), False),
+        ("the green object", "unique", (2,), (3,), (2,), False),  # 3's colour is unknown: reported, not counted
+        ("the sphere", "unique", (0,), (), (0,), False),
+        ("the red object", "inferred", (0,), (3,), (0, 1), False),
+        ("the yellow cube", "inferred", (1,), (), (), True),  # no object: absent from a world of given attributes; closest stated
+        ("the metal cylinder", "unique", (3,), (), (3,), False),
+        ("the blue cylinder", "inferred", (3,), (3,), (), False),  # only 3 can be it (its colour is unknown)
     ],
 )
-def test_ground_phrase(text, status, ids, uncertain):
+def test_ground_phrase(text, status, ids, uncertain, matches, absent):
     grounding = ground_phrase(text, OBJECTS)
-    assert (grounding.status, grounding.object_ids, grounding.uncertain) == (status, ids, uncertain)
-    assert text in grounding.message()
-    if status == "unique":
-        assert grounding.object_id == ids[0]
-    else:
-        with pytest.raises(ValueError, match=status):
-            grounding.object_id
+    assert (grounding.status, grounding.object_ids, grounding.uncertain, grounding.matches, grounding.absent) == (
+        status, ids, uncertain, matches, absent)
+    assert text in grounding.message() and grounding.object_id == ids[0]
+    if status == "inferred":
+        assert f"object {ids[0]} (p=" in grounding.message() or "closest: object" in grounding.message()
+    assert abs(sum(p for _, p in grounding.probabilities) - 1) < 1e-9
+
+
+def _perceived(object_id, color, shape, belief_color, belief_shape, support, material="rubber"):
+    return WorldObject(object_id, color, material, shape,
+                       {"color": belief_color, "material": {"rubber": 0.7, "metal": 0.3}, "shape": belief_shape}, support)
+
+
+def test_a_duplicate_track_loses_to_the_object_seen_longer():
+    """Two tracks read green (a duplicate of one object): the one seen in more frames is chosen, and the
+    message states the choice, its probability and the runner-up."""
+    objects = (_perceived(5, "green", "cube", {"green": 0.9, "cyan": 0.1}, {"cube": 1.0}, 14),
+               _perceived(7, "green", "cube", {"green": 0.9, "cyan": 0.1}, {"cube": 1.0}, 120),
+               _perceived(8, "red", "sphere", {"red": 1.0}, {"sphere": 1.0}, 128))
+    grounding = ground_phrase("the green object", objects)
+    assert (grounding.status, grounding.object_id, grounding.matches) == ("inferred", 7, (5, 7))
+    assert "'the green object' -> object 7 (p=0.50; next object 5, p=0.50)" in grounding.message()
+    assert "objects [5, 7] all match" in grounding.message()
+
+
+def test_a_misread_attribute_is_decided_by_its_probability():
+    """No object is read red, but one's colour belief gives red a fair chance: that object, with its probability."""
+    objects = (_perceived(0, "brown", "cube", {"brown": 0.6, "red": 0.35, "yellow": 0.05}, {"cube": 0.8, "cylinder": 0.2}, 100),
+               _perceived(1, "blue", "cube", {"blue": 0.98, "purple": 0.02}, {"cube": 1.0}, 100),
+               _perceived(2, "red", "sphere", {"red": 0.99, "purple": 0.01}, {"sphere": 0.95, "cube": 0.05}, 100))
+    grounding = ground_phrase("the red cube", objects)
+    assert (grounding.status, grounding.object_id, grounding.matches, grounding.absent) == ("inferred", 0, (), False)
+    probability = 0.35 * 0.8 / (0.35 * 0.8 + 1e-12 + 0.99 * 0.05)
+    assert grounding.probability == pytest.approx(probability) and f"p={probability:.2f}; next object 2" in grounding.message()
+
+
+def test_references_of_one_program_go_to_distinct_objects_jointly():
+    """Alone, both phrases would pick object 1; jointly the assignment with the larger product wins."""
+    objects = (_perceived(1, "red", "cube", {"red": 0.9, "blue": 0.1}, {"cube": 0.9, "cylinder": 0.1}, 100),
+               _perceived(2, "blue", "cube", {"blue": 0.9, "red": 0.1}, {"cube": 0.6, "cylinder": 0.4}, 100))
+    cube, red = AttributeQuery(shape="cube"), AttributeQuery(color="red")
+    assert [g.object_id for g in (ground(cube, objects), ground(red, objects))] == [1, 1]
+    joint = ground_references([cube, red], objects)
+    assert [g.object_id for g in joint] == [2, 1]  # 0.6 x 0.9 beats 0.9 x 0.1
+    program = parse_question("Which of the following will happen if the red rubber cube is removed?").program
+    same = ground_references([cube, cube], objects)  # one phrase twice names one object
+    assert same[0].object_id == same[1].object_id == 1 and len(ground_program(program, objects)) == 1
+
+
+def test_only_an_empty_world_leaves_a_reference_undecided():
+    grounding = ground_phrase("the red cube", ())
+    assert grounding.status == "undecided" and grounding.object_ids == () and "no objects" in grounding.message()
+    with pytest.raises(ValueError, match="undecided"):
+        grounding.object_id
+    assert bound_ids([grounding]) is None and failed([grounding]) == [grounding]
 
 
 def test_program_references_follow_the_parsed_programs():
@@ -78,6 +131,7 @@ def test_program_references_follow_the_parsed_programs():
     assert program_references(choice) == [AttributeQuery(color="green")]
     assert program_references(parse_question("Which event will happen next?").program) == []
     assert [ground(q, OBJECTS).status for q in program_references(question.program)] == ["unique", "unique"]
+    assert [g.object_id for g in ground_program(question.program, OBJECTS)] == [1, 0]
 
 
 def test_objects_from_summary_validates():
@@ -87,6 +141,12 @@ def test_objects_from_summary_validates():
         objects_from_summary({})
     with pytest.raises(ValueError, match=r"objects\[0\]\.object_id"):
         objects_from_summary({"objects": [{"color": "red"}]})
+    belief = {"color": {"red": 0.8, "brown": 0.2}, "material": {"metal": 1.0}, "shape": {"cube": 1.0}, "support_frames": 33}
+    (perceived,) = objects_from_summary({"objects": [{"object_id": 4, "color": "red", "material": "metal", "shape": "cube",
+                                                     "attribute_belief": belief}]})
+    assert perceived.belief["color"] == {"red": 0.8, "brown": 0.2} and perceived.support_frames == 33
+    with pytest.raises(ValueError, match="attribute_belief"):
+        objects_from_summary({"objects": [{"object_id": 4, "attribute_belief": {"color": 0.5}}]})
 
 
 @pytest.fixture()
@@ -97,29 +157,53 @@ def two_reds(tool_client, six_document):
     return VideoExecutor(tool_client.create_world(document))
 
 
-def test_ambiguous_question_reference_is_reported_over_http(two_reds):
+def test_ambiguous_question_reference_is_decided_and_stated_over_http(two_reds):
     answer = two_reds.answer_text("Which of the following will happen if the red object is removed?",
                                   ["The green object collides with the yellow object"])
-    assert answer.verdicts == [None]
-    assert "ambiguous" in answer.error and "[0, 1]" in answer.error
-    assert not any(c.tool == "simulate_edit" for c in two_reds.world.calls)  # nothing executed on a guess
+    assert answer.verdicts[0] in ("correct", "wrong") and answer.error is None
+    assert any("'the red object' -> object 0 (p=0.50; next object 1, p=0.50)" in f for f in answer.facts)
+    removals = [c for c in two_reds.world.calls if c.tool == "simulate_edit"]
+    assert [c.arguments["object_id"] for c in removals] == [0]
 
 
-def test_ambiguous_choice_reference_leaves_only_that_choice_undecided(two_reds):
+def test_ambiguous_choice_reference_is_decided_in_that_choice(two_reds):
     answer = two_reds.answer_text("Which of the following will happen if the green object is removed?",
                                   ["The red object collides with the yellow object", "The yellow object collides with the purple object",
                                    "The red metal object collides with the blue object"])
-    assert answer.verdicts[0] is None and "ambiguous" in answer.choices[0].error
-    assert answer.verdicts[1] in ("correct", "wrong")
-    # "the blue object" no longer exists: unmatched, reported in the facts, and absent from every event.
+    assert None not in answer.verdicts
+    assert "'the red object' -> object 0" in answer.choices[0].facts[0]
+    # "the blue object" no longer exists: unmatched in a world of given attributes, absent from every event.
     assert answer.verdicts[2] == "wrong" and "the blue object matches no object" in answer.choices[2].facts[0]
 
 
-def test_unmatched_explained_event_is_reported(tool_client, six_document):
+def test_unmatched_explained_event_is_decided_with_the_closest_object(tool_client, six_document):
     executor = VideoExecutor(tool_client.create_world(six_document))
     answer = executor.answer_text("Which of the following is responsible for the cyan object's exit?", ["the presence of the red object"])
-    assert answer.verdicts == [None]
-    assert "cyan object matches no object" in answer.error
+    # grounded (to the closest object, stated); that object never exits, so the program itself does not apply
+    assert "cannot ground" not in (answer.error or "") and "expected exactly one item, got 0" in answer.error
+    assert any("cyan object matches no object of the world (closest: object 0, p=0.17" in f for f in answer.facts)
+
+
+def _believed(document, body, belief_color, support):
+    document["bodies"][body]["attribute_belief"] = {"color": belief_color, "material": {"rubber": 0.5, "metal": 0.5},
+                                                     "shape": {"cylinder": 0.8, "cube": 0.1, "sphere": 0.1}, "support_frames": support}
+
+
+def test_a_perceived_world_with_a_misread_colour_answers_as_the_true_world(tool_client, six_document):
+    """Perception read the blue object (1) as purple, so the purple sphere (4) has a twin and no object is blue:
+    with the colour beliefs both phrases find their true objects and the verdicts equal those on the true world."""
+    question = "Which of the following will happen if the blue object is removed?"
+    choices = ["The red object collides with the green object", "The purple object collides with the yellow object",
+               "The red object collides with the blue object"]
+    truth = VideoExecutor(tool_client.create_world(six_document)).answer_text(question, choices)
+    misread = copy.deepcopy(six_document)
+    misread["bodies"][1]["color"] = "purple"
+    _believed(misread, 1, {"purple": 0.6, "blue": 0.35, "cyan": 0.05}, 128)
+    _believed(misread, 4, {"purple": 0.95, "blue": 0.05}, 80)
+    perceived = VideoExecutor(tool_client.create_world(misread)).answer_text(question, choices)
+    assert None not in truth.verdicts and perceived.verdicts == truth.verdicts
+    assert any("'the blue object' -> object 1 (p=" in f for f in perceived.facts)
+    assert "'the purple object' -> object 4" in perceived.choices[1].facts[0]
 
 
 def test_an_object_missing_from_the_world_takes_part_in_no_event(tool_client, six_document):

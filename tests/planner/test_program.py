@@ -31,6 +31,7 @@ from planner.program import (
     causal_ancestors,
     check_program,
     execute,
+    reference_spans,
     score_choice,
 )
 
@@ -296,3 +297,21 @@ def test_check_program_types(program, inputs, expected):
 def test_check_program_rejects(program, inputs):
     with pytest.raises(ProgramError):
         check_program(program, inputs)
+
+
+def test_bound_references_stand_for_the_grounded_objects():
+    """execute(bound=...): each object reference pushes the object grounding chose, even where the filters would
+    find several objects or none; the rest of the program runs as usual."""
+    objects = (ObjectRecord(1, "red", "metal", "cube"), ObjectRecord(2, "red", "rubber", "cube"), ObjectRecord(3, "blue", "rubber", "sphere"))
+    scene = ProgramScene(objects=objects, events=(EventRecord("collision", (2, 3), 40),), observed_frames=128)
+    program = ["events", "objects", "red", "filter_color", "unique", "filter_collision",
+               "objects", "green", "filter_color", "unique", "filter_collision", "exist"]
+    assert reference_spans(program) == [(1, 4), (6, 9)]
+    with pytest.raises(ProgramError, match="unique"):
+        execute(program, scene)
+    assert execute(program, scene, bound=[2, 3]) == "yes"
+    assert execute(program, scene, bound=[1, 3]) == "no"
+    with pytest.raises(ProgramError, match="2 object reference"):
+        execute(program, scene, bound=[2])
+    with pytest.raises(ProgramError, match="unknown object id 9"):
+        execute(program, scene, bound=[2, 9])

@@ -12,7 +12,7 @@ from tools.errors import ToolError
 from tools.registry import call_tool
 from tools.session import MemoryRolloutStore, WorldSession
 from world.rollout import simulate
-from world.types import Edit, Event
+from world.types import AttributeBelief, Edit, Event
 
 
 def collision_pairs(rollout) -> dict[tuple[int, int], list[int]]:
@@ -373,3 +373,13 @@ def test_continue_world_is_the_unedited_world_to_a_longer_horizon(session, world
         (list(e.bodies), e.frame) for e in direct.events if e.kind == "collision"]
     assert first["boundaries"]["horizon_frames"] == horizon
     assert session.rollout(first["rollout_id"], tool=None).edits == ()
+
+
+def test_world_summary_reports_attribute_beliefs_only_where_the_world_has_them(world):
+    belief = AttributeBelief.from_mappings({"green": 0.6, "cyan": 0.4}, {"metal": 0.2, "rubber": 0.8},
+                                           {"cube": 0.5, "cylinder": 0.3, "sphere": 0.2}, support_frames=40)
+    perceived = dataclasses.replace(world, bodies=(dataclasses.replace(world.bodies[0], attribute_belief=belief), *world.bodies[1:]))
+    objects = call_tool("get_world_summary", WorldSession("w-belief", perceived, MemoryRolloutStore()), {})["objects"]
+    assert objects[0]["attribute_belief"] == {"color": {"green": 0.6, "cyan": 0.4}, "material": {"metal": 0.2, "rubber": 0.8},
+                                              "shape": {"cube": 0.5, "cylinder": 0.3, "sphere": 0.2}, "support_frames": 40}
+    assert all("attribute_belief" not in o for o in objects[1:])

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import math
 
@@ -14,7 +15,8 @@ from world.camera import look_at_camera
 from world.io import (rollout_from_dict, rollout_to_dict, validate_rollout_dict, validate_world_dict,
                       world_from_dict, world_to_dict)
 from world.rollout import simulate
-from world.types import Body, BodyState, Edit, Shape
+from world.observations import ObjectTrack, Observations, default_shape
+from world.types import AttributeBelief, Body, BodyState, Edit, Shape
 
 
 def rich_world():
@@ -100,3 +102,45 @@ def test_invalid_rollout_documents_are_rejected(mutate, where):
     mutate(document)
     with pytest.raises(ValueError, match=where):
         rollout_from_dict(document)
+
+
+# --------------------------------------------------------------------------- attribute beliefs
+BELIEF = AttributeBelief.from_mappings({"red": 0.7, "purple": 0.2, "brown": 0.1}, {"metal": 0.35, "rubber": 0.65},
+                                       {"cube": 0.9, "cylinder": 0.1}, support_frames=97)
+
+
+def test_attribute_belief_round_trips_in_world_and_observation_documents():
+    world = rich_world()
+    perceived = dataclasses.replace(world, bodies=(dataclasses.replace(world.bodies[0], attribute_belief=BELIEF), *world.bodies[1:]))
+    document = world_to_dict(perceived)
+    validate_world_dict(document)
+    assert document["bodies"][0]["attribute_belief"]["color"] == {"red": 0.7, "purple": 0.2, "brown": 0.1}
+    assert "attribute_belief" not in document["bodies"][1]  # absent for bodies without one: older readers see the old format
+    again = world_from_dict(json.loads(json.dumps(document)))
+    assert again == perceived and again.bodies[0].attribute_belief.distribution("shape") == {"cube": 0.9, "cylinder": 0.1}
+    assert world_from_dict(world_to_dict(world)).bodies[0].attribute_belief is None
+    track = ObjectTrack(3, default_shape("cube"), [0, 1], [[0, 0, 0.2], [0.1, 0, 0.2]], [0.0, 0.0], [True, True], [1.0, 1.0],
+                        color="red", material="rubber", attribute_belief=BELIEF)
+    observations = Observations(objects=(track,))
+    assert Observations.from_dict(json.loads(json.dumps(observations.to_dict()))).objects[0].attribute_belief == BELIEF
+
+
+@pytest.mark.parametrize("color, material, support, message", [
+    ({"red": 0.7, "blue": 0.2}, {"metal": 1.0}, 1, "sum to 1"),
+    ({"pink": 1.0}, {"metal": 1.0}, 1, "among"),
+    ({"red": 1.2, "blue": -0.2}, {"metal": 1.0}, 1, r"in \[0, 1\]"),
+    ({"red": 1.0}, {"metal": 1.0}, -1, "support_frames"),
+])
+def test_invalid_attribute_beliefs_are_rejected(color, material, support, message):
+    with pytest.raises(ValueError, match=message):
+        AttributeBelief.from_mappings(color, material, {"sphere": 1.0}, support_frames=support)
+
+
+def test_an_invalid_belief_in_a_document_is_rejected_with_its_path():
+    document = world_to_dict(rich_world())
+    document["bodies"][1]["attribute_belief"] = {"color": {"red": 0.5}, "material": {"metal": 1.0}, "shape": {"cube": 1.0}}
+    with pytest.raises(ValueError, match=r"bodies\[1\].*sum to 1"):
+        world_from_dict(document)
+    document["bodies"][1]["attribute_belief"] = {"color": {"teal": 1.0}, "material": {"metal": 1.0}, "shape": {"cube": 1.0}}
+    with pytest.raises(ValueError, match="bodies/1/attribute_belief"):
+        world_from_dict(document)

@@ -320,6 +320,7 @@ def _body(estimate: BodyEstimate, config: FitConfig) -> Body:
         color=track.color,
         material=track.material,
         contact_friction=contact_friction,
+        attribute_belief=track.attribute_belief,
     )
 
 

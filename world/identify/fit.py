@@ -353,14 +353,17 @@ def _world(
     observations: Observations,
     config: FitConfig,
     provenance: Mapping[str, object] | None = None,
+    with_camera: bool = True,
 ) -> World:
+    """The World of these estimates. with_camera False: no camera (the joint fit's rollouts:
+    only positions are compared, and the camera costs a visibility test per body and frame)."""
     return World(
         bodies=_separated(tuple(_body(e) for e in estimates)),
         fps=observations.fps,
         observed_frames=observations.num_frames,
         gravity=config.gravity,
         pair_restitution=tuple((a, b, float(e)) for (a, b), e in sorted(pair_restitution.items())),
-        camera=observations.camera,
+        camera=observations.camera if with_camera else None,
         provenance=dict(provenance or {}),
     )
 
@@ -550,7 +553,7 @@ def _refine_component(
             full = fixed.copy()
             full[free] = sub
             body_estimates, pairs = packing.unpack(full, estimates)
-            world = _world([body_estimates[b] for b in packing.bodies], pairs, observations, config)
+            world = _world([body_estimates[b] for b in packing.bodies], pairs, observations, config, with_camera=False)
             residuals = _residuals(world, tracks, horizon, config.simulator)
             cost = float(residuals @ residuals)
             if cost < best[0]:

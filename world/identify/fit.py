@@ -25,8 +25,10 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
 
 from world.contacts import footprint_distance
+from world.identify.jacobian import SecantJacobian
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide
 from world.identify.segments import CandidateCollision, find_candidate_collisions
 from world.observations import ObjectTrack, Observations
@@ -64,12 +66,29 @@ class FitConfig:
     # Relative cost change that ends a stage: millimetre-level changes of an
     # RMSE of a few millimetres do not change any event.
     tolerance: float = 1e-4
+    # A stage also ends when an iteration lowers its cost by less than this
+    # share (2 % of the cost is 1 % of the RMSE): the tail of slow iterations
+    # cost most rollouts and moved no event (docs/identification.md).
+    min_relative_improvement: float = 0.02
+    # A stage ends (or is skipped) once its RMSE is at the noise floor: this
+    # factor times the pooled RMSE of the component's local closed-form fits
+    # (the frames next to a contact, which the local fits leave out, are
+    # never fitted as well). Relative only: exact tracks have no floor.
+    noise_floor_factor: float = 1.5
+    # ... and the early stop on slow iterations applies only at an RMSE up to
+    # this many noise floors: a slow step further up can be a plateau before
+    # a contact the replay does not make yet (exact tracks: never).
+    stall_floor_multiple: float = 4.0
+    # Jacobians of the joint fit: forward differences at a stage's start and
+    # after a stalled step, Broyden updates in between (world/identify/jacobian.py);
+    # False: a forward difference every iteration (scipy's '2-point').
+    secant_jacobian: bool = True
     # Bodies seen on fewer frames than this get conservative defaults.
     min_frames: int = 2
     # Wall-clock seconds for the joint refinement of the whole scene. When it
     # runs out, the stage being fitted keeps its best vector so far, the
     # remaining stages are skipped, and the report says so (budget_exhausted).
-    time_budget_seconds: float = 30.0
+    time_budget_seconds: float = 12.0
     # simulate(world, edits, horizon_frames) -> Rollout; None: the
     # event-driven engine (a fixed-step baseline plugs in here).
     simulator: Callable[..., object] | None = None
@@ -490,6 +509,13 @@ class _Packing:
         return updated, pair_e
 
 
+def _local_rmse(fits: Sequence[TrackFit]) -> float:
+    """Pooled RMSE (m) of the local closed-form fits of these tracks' stretches (sample-weighted)."""
+    pairs = [(s.rmse, s.samples) for fit in fits for s in fit.stretches]
+    samples = sum(n for _, n in pairs)
+    return math.sqrt(sum(r * r * n for r, n in pairs) / samples) if samples else 0.0
+
+
 def _refine_component(
     packing: _Packing,
     estimates: Mapping[int, BodyEstimate],
@@ -499,6 +525,7 @@ def _refine_component(
     observations: Observations,
     config: FitConfig,
     deadline: float = math.inf,
+    noise_floor: float = 0.0,
 ) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float], int, int]:
     """Cumulative-prefix least squares over one component.
 
@@ -507,6 +534,11 @@ def _refine_component(
     once it is spent), the whole-video stage the rest; a stage that runs out
     keeps its best vector so far. Returns the updated estimates, pair
     restitutions, rollout count and the number of stages cut short or skipped.
+
+    noise_floor: RMSE (m, over the stage's weighted samples) at which a stage
+    stops: its start vector already there skips it in one rollout. A stage
+    also stops after an iteration that lowers the cost by less than
+    ``config.min_relative_improvement`` of it.
 
     A stage fitting frames < H frees only what those frames can inform:
     bodies seen before H, masses and restitutions of collisions before H.
@@ -543,9 +575,13 @@ def _refine_component(
             continue
         fixed = vector.copy()
         best: list = [math.inf, vector[free].copy()]  # cost, sub-vector: kept when the deadline interrupts
+        # Sums of squared residuals at an RMSE: its square times the stage's total sample weight.
+        weight = sum(float(t.weights[t.observed & (t.frames < horizon)].sum()) for t in tracks)
+        floor_cost = noise_floor**2 * weight
+        stall_cost = (config.stall_floor_multiple * noise_floor) ** 2 * weight
 
         def fn(sub: np.ndarray, horizon: int = horizon, fixed: np.ndarray = fixed, best: list = best,
-               stage_deadline: float = stage_deadline) -> np.ndarray:
+               stage_deadline: float = stage_deadline, floor_cost: float = floor_cost) -> np.ndarray:
             nonlocal evaluations
             if time.perf_counter() > stage_deadline:
                 raise _BudgetExhausted
@@ -558,15 +594,14 @@ def _refine_component(
             cost = float(residuals @ residuals)
             if cost < best[0]:
                 best[0], best[1] = cost, sub.copy()
+            if cost <= floor_cost:
+                raise _AtNoiseFloor
             return residuals
 
         try:
-            result = least_squares(
-                fn, vector[free], bounds=(low[free], high[free]), x_scale=scale[free],
-                max_nfev=config.max_nfev_per_stage, method="trf",
-                ftol=config.tolerance, xtol=config.tolerance, gtol=config.tolerance,
-            )
-            vector[free] = result.x
+            vector[free] = _least_squares_stage(fn, vector[free], low[free], high[free], scale[free], config, stall_cost)
+        except _AtNoiseFloor:
+            vector[free] = best[1]
         except _BudgetExhausted:
             vector[free] = best[1]
             skipped += 1
@@ -574,11 +609,72 @@ def _refine_component(
     return updated, pairs, evaluations, skipped
 
 
+# A stage that converged on a Broyden-updated Jacobian is restarted from
+# there with a fresh forward difference, at most this many times: the
+# convergence tests of a secant model can stop short of the minimum.
+SECANT_RESTARTS = 3
+
+
+def _least_squares_stage(
+    fn: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, low: np.ndarray, high: np.ndarray,
+    scale: np.ndarray, config: FitConfig, stall_cost: float = 0.0,
+) -> np.ndarray:
+    """One stage's bounded least squares from x0 (n,); returns the solution (n,).
+
+    Secant Jacobians (``config.secant_jacobian``) with restarts, or a forward
+    difference every iteration; either way the stage ends early when
+    iterations stop paying (``config.min_relative_improvement``) once the
+    sum of squared residuals is at most ``stall_cost`` (a slow step further
+    up is a plateau before a contact the replay has not found yet).
+    """
+    options = dict(bounds=(low, high), x_scale=scale, max_nfev=config.max_nfev_per_stage, method="trf",
+                   ftol=config.tolerance, xtol=config.tolerance, gtol=config.tolerance)
+    if not config.secant_jacobian:
+        return least_squares(fn, x0, jac="2-point", callback=_stop_when_slow(config.min_relative_improvement, stall_cost), **options).x
+    x = x0
+    for _ in range(1 + SECANT_RESTARTS):
+        secant = SecantJacobian(fn, high, config.min_relative_improvement)
+        result = least_squares(secant.fun, x, jac=secant, callback=_stop_when_stalled(secant, stall_cost), **options)
+        x = result.x
+        if result.status in (-2, 0) or secant.fresh:  # -2: stalled (our callback), 0: max_nfev reached
+            break
+    return x
+
+
+def _stop_when_stalled(secant: SecantJacobian, stall_cost: float) -> Callable[[object], None]:
+    """least_squares callback: end the stage once a step from a fresh Jacobian stalled at a cost <= stall_cost."""
+
+    def stop(intermediate_result) -> None:  # scipy passes the OptimizeResult by this name
+        if secant.stalled and 2.0 * float(intermediate_result.cost) <= stall_cost:  # scipy's cost: half the sum
+            raise StopIteration
+        secant.stalled = False
+
+    return stop
+
+
+def _stop_when_slow(min_relative_improvement: float, stall_cost: float) -> Callable[[object], None]:
+    """least_squares callback: end the stage after an iteration that lowered the cost by less than this share,
+    at a cost <= stall_cost."""
+    previous = [math.inf]
+
+    def stop(intermediate_result) -> None:  # scipy passes the OptimizeResult by this name
+        cost = 2.0 * float(intermediate_result.cost)  # scipy's cost is half the sum of squares
+        if previous[0] - cost < min_relative_improvement * previous[0] and cost <= stall_cost:
+            raise StopIteration
+        previous[0] = cost
+
+    return stop
+
+
 PREFIX_BUDGET_SHARE = 0.6  # of a component's time budget for the prefix stages; the rest for the whole video
 
 
 class _BudgetExhausted(Exception):
     """Raised inside the objective when FitConfig.time_budget_seconds has run out."""
+
+
+class _AtNoiseFloor(Exception):
+    """Raised inside the objective when a stage's RMSE has reached its noise floor."""
 
 
 # --------------------------------------------------------------------------
@@ -642,6 +738,14 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
     restitution; ``provenance`` holds the fit report) and the report. The
     stages (docs/identification.md) are the functions called below, in order.
     """
+    # One BLAS thread: the optimiser's matrices are small, and threaded OpenBLAS on a
+    # shared, loaded machine spent 255x longer per SVD than one thread (docs/benchmarks.md).
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _identify(observations, config)
+
+
+def _identify(observations: Observations, config: FitConfig) -> tuple[World, FitReport]:
+    """identify's stages, in order (docs/identification.md)."""
     began = time.perf_counter()
     usable, flags = _observed_tracks(observations)
     candidates, track_fits = _local_fits(usable, observations, config)
@@ -655,7 +759,7 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
     refinement = _Refinement(0, 0, 0)
     if config.joint:
         estimates, pair_e, refinement = _joint_refinement(
-            components, candidates, estimates, pair_e, default_e, defaulted, observations, config
+            components, candidates, estimates, pair_e, default_e, defaulted, observations, config, track_fits
         )
     if pair_e:
         # Bodies carry the typical restitution for collisions not seen yet.
@@ -815,7 +919,7 @@ class _Refinement:
 def _joint_refinement(
     components: Sequence[tuple[int, ...]], candidates: Sequence, estimates: dict[int, BodyEstimate],
     pair_e: dict[tuple[int, int], float], default_e: float, defaulted: dict[int, dict[str, str]],
-    observations: Observations, config: FitConfig,
+    observations: Observations, config: FitConfig, track_fits: Mapping[int, TrackFit],
 ) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float], _Refinement]:
     """Stage 4: cumulative-prefix least squares per component with collisions, within the time budget.
     Updates ``defaulted`` (mass and restitution of the bodies in replayed collisions are identified)."""
@@ -838,8 +942,9 @@ def _joint_refinement(
         # Components left share the time left equally.
         left = len(joint_components) - joint_components.index(component)
         component_deadline = time.perf_counter() + max(deadline - time.perf_counter(), 0.0) / left
+        floor = config.noise_floor_factor * _local_rmse([track_fits[b] for b in component])
         updated, fitted_e, used, skipped = _refine_component(
-            packing, estimates, pair_e, pair_frames, horizons, observations, config, component_deadline
+            packing, estimates, pair_e, pair_frames, horizons, observations, config, component_deadline, floor
         )
         estimates.update(updated)
         pair_e.update(fitted_e)

@@ -74,11 +74,11 @@ class FitConfig:
     # factor times the pooled RMSE of the component's local closed-form fits
     # (the frames next to a contact, which the local fits leave out, are
     # never fitted as well). Relative only: exact tracks have no floor.
-    noise_floor_factor: float = 1.5
+    noise_floor_factor: float = 1.1
     # ... and the early stop on slow iterations applies only at an RMSE up to
     # this many noise floors: a slow step further up can be a plateau before
     # a contact the replay does not make yet (exact tracks: never).
-    stall_floor_multiple: float = 4.0
+    stall_floor_multiple: float = 1.5
     # Jacobians of the joint fit: forward differences at a stage's start and
     # after a stalled step, Broyden updates in between (world/identify/jacobian.py);
     # False: a forward difference every iteration (scipy's '2-point').

@@ -66,9 +66,11 @@ class FitConfig:
     # Relative cost change that ends a stage: millimetre-level changes of an
     # RMSE of a few millimetres do not change any event.
     tolerance: float = 1e-4
-    # A stage also ends when an iteration lowers its cost by less than this
-    # share (2 % of the cost is 1 % of the RMSE): the tail of slow iterations
-    # cost most rollouts and moved no event (docs/identification.md).
+    # Near the noise floor (stall_floor_multiple below), a stage also ends when
+    # an iteration lowers its cost by less than this share (2 % of the cost is
+    # 1 % of the RMSE): such tails of slow iterations cost most of the
+    # forward-difference rollouts (docs/benchmarks.md). Also the share below
+    # which a step from a secant Jacobian asks for a fresh forward difference.
     min_relative_improvement: float = 0.02
     # A stage ends (or is skipped) once its RMSE is at the noise floor: this
     # factor times the pooled RMSE of the component's local closed-form fits
@@ -540,7 +542,8 @@ def _refine_component(
 
     noise_floor: RMSE (m, over the stage's weighted samples) at which a stage
     stops: its start vector already there skips it in one rollout. A stage
-    also stops after an iteration that lowers the cost by less than
+    within ``config.stall_floor_multiple`` floors also stops after an
+    iteration that lowers the cost by less than
     ``config.min_relative_improvement`` of it.
 
     A stage fitting frames < H frees only what those frames can inform:

@@ -24,6 +24,10 @@ it (``bench.metrics.score_world``):
 code, same oracle tracks) instead of fitting them again; their fit time is
 the one recorded in the world's fit report.
 
+``--forward-jacobian`` also fits with a forward-difference Jacobian every
+iteration (the A/B of the secant Jacobian), in the same run. A second table
+gives the fit cost: wall and CPU seconds, rollouts, budget hits.
+
 ``--baseline`` also fits with the fixed-step integrator of the same model
 (``bench.fixed_step``, dt = 1/100 s) and the same optimiser, in the same run.
 
@@ -57,6 +61,7 @@ VELOCITY_WINDOW = 5  # frames: the constant-velocity baseline's least-squares wi
 NEAR_METRES = 0.10  # "within 10 cm"
 PREDICTORS = ("world", "hold", "const-vel")
 ROLLING_SPHERES = "roll-spheres"  # the same fit with spheres that skid then roll (FitConfig(rolling_spheres=True))
+FORWARD_JACOBIAN = "fd-jacobian"  # the same fit with a forward-difference Jacobian every iteration (FitConfig(secant_jacobian=False))
 
 
 def _future_truth(annotation: Path, index: str) -> dict | None:
@@ -115,7 +120,7 @@ def _noisy(observations: Observations, sigma: float, seed: int) -> Observations:
 
 
 def _simulator(method: str):
-    if method in ("analytic", ROLLING_SPHERES):
+    if method in ("analytic", ROLLING_SPHERES, FORWARD_JACOBIAN):
         return None, lambda world, edits, horizon: simulate(world, edits, horizon)
 
     def stepper(world, edits, horizon):
@@ -155,11 +160,14 @@ def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None =
     fit_simulator, score_simulator = _simulator(method)
     cached = _cached_world(worlds, index, noise, method)
     if cached is None:
-        began = time.perf_counter()
-        world, report = identify(observations, FitConfig(simulator=fit_simulator, rolling_spheres=method == ROLLING_SPHERES))
+        began, began_cpu = time.perf_counter(), time.process_time()
+        world, report = identify(observations, FitConfig(simulator=fit_simulator, rolling_spheres=method == ROLLING_SPHERES,
+                                                         secant_jacobian=method != FORWARD_JACOBIAN))
         seconds, evaluations = time.perf_counter() - began, report.function_evaluations
+        cpu_seconds, budget_hit = time.process_time() - began_cpu, report.budget_exhausted
     else:
         world, seconds, evaluations = cached
+        cpu_seconds, budget_hit = float("nan"), bool(world.provenance["fit"].get("budget_exhausted", False))
     visible = np.stack([t.visible for t in clean.objects], axis=1)
     # Each method executes its own fitted world, as its user would.
     score = score_world(world, truth, score_simulator, visible)
@@ -192,6 +200,8 @@ def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None =
         "counterfactual_f1": [c.f1 for c in score.counterfactual],
         "counterfactual": [_counts(c) for c in score.counterfactual],
         "seconds": seconds,
+        "cpu_seconds": cpu_seconds,
+        "budget_exhausted": budget_hit,
         "evaluations": evaluations,
     }
 
@@ -236,11 +246,39 @@ def summarise(rows: list[dict]) -> list[str]:
             f"{kept.precision:>6.3f} {kept.recall:>5.3f} | {reproduced.recall:>8.3f} | "
             f"{np.median(seconds):>9.2f} {np.percentile(seconds, 95):>6.2f} {np.max(seconds):>6.2f}"
         )
+    lines += _cost_table(rows)
     lines += _ahead_table(rows)
     failures = [r for r in rows if "error" in r]
     if failures:
         lines.append(f"failed fits ('F' above): {len(failures)}")
         lines += [f"  scene {r['scene']} noise {r['noise']} {r['method']}: {r['error']}" for r in failures[:10]]
+    return lines
+
+
+def _cost_table(rows: list[dict]) -> list[str]:
+    """Fit cost per method and noise: wall and CPU seconds (median / p95 / max), rollouts, budget hits.
+
+    CPU seconds (the fitting process's own) stay meaningful on a shared,
+    loaded machine where wall time measures the load as much as the fit.
+    """
+    groups: dict[tuple[str, float], list[dict]] = {}
+    for row in rows:
+        if "error" not in row:
+            groups.setdefault((row["method"], row["noise"]), []).append(row)
+    lines = ["", "fit cost per scene",
+             f"{'method':<11} {'noise':>5} {'scenes':>6} | {'wall s med':>10} {'p95':>6} {'max':>6} | "
+             f"{'CPU s med':>9} {'p95':>6} {'max':>6} | {'rollouts med':>12} {'max':>6} | {'budget hit':>10}"]
+    for (method, noise), group in sorted(groups.items()):
+        wall = np.array([r["seconds"] for r in group])
+        cpu = np.array([r.get("cpu_seconds", np.nan) for r in group], dtype=float)
+        rollouts = np.array([r["evaluations"] for r in group])
+        hits = sum(bool(r.get("budget_exhausted")) for r in group)
+        cpu_cells = (f"{'n/a':>9} {'':>6} {'':>6}" if np.all(np.isnan(cpu)) else
+                     f"{np.nanmedian(cpu):>9.2f} {np.nanpercentile(cpu, 95):>6.2f} {np.nanmax(cpu):>6.2f}")
+        lines.append(
+            f"{method:<11} {noise * 100:>4.0f}% {len(group):>6} | {np.median(wall):>10.2f} {np.percentile(wall, 95):>6.2f} "
+            f"{np.max(wall):>6.2f} | {cpu_cells} | {np.median(rollouts):>12.0f} {np.max(rollouts):>6d} | {hits:>10d}"
+        )
     return lines
 
 
@@ -277,6 +315,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--baseline-scenes", type=int, default=None, help="limit the baseline to the first N scenes")
     parser.add_argument("--rolling-spheres", action="store_true",
                         help="also fit with spheres that skid then roll (FitConfig(rolling_spheres=True)), same run")
+    parser.add_argument("--forward-jacobian", action="store_true",
+                        help="also fit with a forward-difference Jacobian every iteration (FitConfig(secant_jacobian=False)), same run")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--json", type=Path, help="write every per-scene row here")
     parser.add_argument("--worlds", type=Path, default=None,
@@ -290,6 +330,8 @@ def main(argv: list[str] | None = None) -> int:
     tasks = [(a, noise, "analytic", args.worlds) for noise in noises for a in annotations]
     if args.rolling_spheres:
         tasks += [(a, noise, ROLLING_SPHERES, None) for noise in noises for a in annotations]
+    if args.forward_jacobian:
+        tasks += [(a, noise, FORWARD_JACOBIAN, None) for noise in noises for a in annotations]
     if args.baseline:
         for a in annotations[: args.baseline_scenes]:
             tasks += [(a, noise, "fixed-1/100", None) for noise in noises]

@@ -25,8 +25,10 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 from scipy.optimize import least_squares
+from threadpoolctl import threadpool_limits
 
 from world.contacts import footprint_distance
+from world.identify.jacobian import SecantJacobian
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide
 from world.identify.segments import CandidateCollision, find_candidate_collisions
 from world.observations import ObjectTrack, Observations
@@ -73,12 +75,34 @@ class FitConfig:
     # Relative cost change that ends a stage: millimetre-level changes of an
     # RMSE of a few millimetres do not change any event.
     tolerance: float = 1e-4
+    # Near the noise floor (stall_floor_multiple below), a stage also ends when
+    # an iteration lowers its cost by less than this share (2 % of the cost is
+    # 1 % of the RMSE): such tails of slow iterations cost most of the
+    # forward-difference rollouts (docs/benchmarks.md). Also the share below
+    # which a step from a secant Jacobian asks for a fresh forward difference.
+    min_relative_improvement: float = 0.02
+    # A stage ends (or is skipped) once its RMSE is at the noise floor: this
+    # factor times the pooled RMSE of the component's local closed-form fits
+    # (the frames next to a contact, which the local fits leave out, are
+    # never fitted as well). Relative only: exact tracks have no floor.
+    noise_floor_factor: float = 1.1
+    # ... and the early stop on slow iterations applies only at an RMSE up to
+    # this many noise floors: a slow step further up can be a plateau before
+    # a contact the replay does not make yet (exact tracks: never).
+    stall_floor_multiple: float = 1.5
+    # Jacobians of the joint fit: forward differences at a stage's start and
+    # after a stalled step, Broyden updates in between (world/identify/jacobian.py);
+    # False: a forward difference every iteration (scipy's '2-point').
+    secant_jacobian: bool = True
     # Bodies seen on fewer frames than this get conservative defaults.
     min_frames: int = 2
-    # Wall-clock seconds for the joint refinement of the whole scene. When it
-    # runs out, the stage being fitted keeps its best vector so far, the
-    # remaining stages are skipped, and the report says so (budget_exhausted).
-    time_budget_seconds: float = 30.0
+    # CPU seconds (of the fitting process) for the joint refinement of the
+    # whole scene. When they run out, the stage being fitted keeps its best
+    # vector so far, the remaining stages are skipped, and the report says so
+    # (budget_exhausted). CPU, not wall clock: on the shared machine a wall
+    # budget cut 17 of 40 fits at 1-2 CPU seconds each (docs/benchmarks.md),
+    # and the fitted world should not depend on the machine's load.
+    time_budget_seconds: float = 12.0
     # simulate(world, edits, horizon_frames) -> Rollout; None: the
     # event-driven engine (a fixed-step baseline plugs in here).
     simulator: Callable[..., object] | None = None
@@ -368,14 +392,17 @@ def _world(
     observations: Observations,
     config: FitConfig,
     provenance: Mapping[str, object] | None = None,
+    with_camera: bool = True,
 ) -> World:
+    """The World of these estimates. with_camera False: no camera (the joint fit's rollouts:
+    only positions are compared, and the camera costs a visibility test per body and frame)."""
     return World(
         bodies=_separated(tuple(_body(e, config) for e in estimates)),
         fps=observations.fps,
         observed_frames=observations.num_frames,
         gravity=config.gravity,
         pair_restitution=tuple((a, b, float(e)) for (a, b), e in sorted(pair_restitution.items())),
-        camera=observations.camera,
+        camera=observations.camera if with_camera else None,
         provenance=dict(provenance or {}),
         contact_slip_removal=config.contact_slip_removal,
     )
@@ -503,6 +530,13 @@ class _Packing:
         return updated, pair_e
 
 
+def _local_rmse(fits: Sequence[TrackFit]) -> float:
+    """Pooled RMSE (m) of the local closed-form fits of these tracks' stretches (sample-weighted)."""
+    pairs = [(s.rmse, s.samples) for fit in fits for s in fit.stretches]
+    samples = sum(n for _, n in pairs)
+    return math.sqrt(sum(r * r * n for r, n in pairs) / samples) if samples else 0.0
+
+
 def _refine_component(
     packing: _Packing,
     estimates: Mapping[int, BodyEstimate],
@@ -512,14 +546,21 @@ def _refine_component(
     observations: Observations,
     config: FitConfig,
     deadline: float = math.inf,
+    noise_floor: float = 0.0,
 ) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float], int, int]:
     """Cumulative-prefix least squares over one component.
 
-    deadline: ``time.perf_counter()`` value by which the component must be
+    deadline: ``_budget_clock()`` value by which the component must be
     done. Prefix stages get PREFIX_BUDGET_SHARE of the time left (skipped
     once it is spent), the whole-video stage the rest; a stage that runs out
     keeps its best vector so far. Returns the updated estimates, pair
     restitutions, rollout count and the number of stages cut short or skipped.
+
+    noise_floor: RMSE (m, over the stage's weighted samples) at which a stage
+    stops: its start vector already there skips it in one rollout. A stage
+    within ``config.stall_floor_multiple`` floors also stops after an
+    iteration that lowers the cost by less than
+    ``config.min_relative_improvement`` of it.
 
     A stage fitting frames < H frees only what those frames can inform:
     bodies seen before H, masses and restitutions of collisions before H.
@@ -534,13 +575,13 @@ def _refine_component(
     owners = packing.owners()
     evaluations = 0
     skipped = 0
-    started = time.perf_counter()
+    started = _budget_clock()
     prefix_deadline = started + PREFIX_BUDGET_SHARE * max(deadline - started, 0.0)
 
     for stage, horizon in enumerate(horizons):
         last_stage = stage == len(horizons) - 1
         stage_deadline = deadline if last_stage else prefix_deadline
-        if time.perf_counter() > stage_deadline:
+        if _budget_clock() > stage_deadline:
             skipped += 1
             continue
         seen_pairs = {p for p, frame in pair_frames.items() if frame < horizon}
@@ -556,30 +597,33 @@ def _refine_component(
             continue
         fixed = vector.copy()
         best: list = [math.inf, vector[free].copy()]  # cost, sub-vector: kept when the deadline interrupts
+        # Sums of squared residuals at an RMSE: its square times the stage's total sample weight.
+        weight = sum(float(t.weights[t.observed & (t.frames < horizon)].sum()) for t in tracks)
+        floor_cost = noise_floor**2 * weight
+        stall_cost = (config.stall_floor_multiple * noise_floor) ** 2 * weight
 
         def fn(sub: np.ndarray, horizon: int = horizon, fixed: np.ndarray = fixed, best: list = best,
-               stage_deadline: float = stage_deadline) -> np.ndarray:
+               stage_deadline: float = stage_deadline, floor_cost: float = floor_cost) -> np.ndarray:
             nonlocal evaluations
-            if time.perf_counter() > stage_deadline:
+            if _budget_clock() > stage_deadline:
                 raise _BudgetExhausted
             evaluations += 1
             full = fixed.copy()
             full[free] = sub
             body_estimates, pairs = packing.unpack(full, estimates)
-            world = _world([body_estimates[b] for b in packing.bodies], pairs, observations, config)
+            world = _world([body_estimates[b] for b in packing.bodies], pairs, observations, config, with_camera=False)
             residuals = _residuals(world, tracks, horizon, config.simulator)
             cost = float(residuals @ residuals)
             if cost < best[0]:
                 best[0], best[1] = cost, sub.copy()
+            if cost <= floor_cost:
+                raise _AtNoiseFloor
             return residuals
 
         try:
-            result = least_squares(
-                fn, vector[free], bounds=(low[free], high[free]), x_scale=scale[free],
-                max_nfev=config.max_nfev_per_stage, method="trf",
-                ftol=config.tolerance, xtol=config.tolerance, gtol=config.tolerance,
-            )
-            vector[free] = result.x
+            vector[free] = _least_squares_stage(fn, vector[free], low[free], high[free], scale[free], config, stall_cost)
+        except _AtNoiseFloor:
+            vector[free] = best[1]
         except _BudgetExhausted:
             vector[free] = best[1]
             skipped += 1
@@ -587,11 +631,77 @@ def _refine_component(
     return updated, pairs, evaluations, skipped
 
 
+# A stage that converged on a Broyden-updated Jacobian is restarted from
+# there with a fresh forward difference, at most this many times: the
+# convergence tests of a secant model can stop short of the minimum.
+SECANT_RESTARTS = 3
+
+
+def _least_squares_stage(
+    fn: Callable[[np.ndarray], np.ndarray], x0: np.ndarray, low: np.ndarray, high: np.ndarray,
+    scale: np.ndarray, config: FitConfig, stall_cost: float = 0.0,
+) -> np.ndarray:
+    """One stage's bounded least squares from x0 (n,); returns the solution (n,).
+
+    Secant Jacobians (``config.secant_jacobian``) with restarts, or a forward
+    difference every iteration; either way the stage ends early when
+    iterations stop paying (``config.min_relative_improvement``) once the
+    sum of squared residuals is at most ``stall_cost`` (a slow step further
+    up is a plateau before a contact the replay has not found yet).
+    """
+    options = dict(bounds=(low, high), x_scale=scale, max_nfev=config.max_nfev_per_stage, method="trf",
+                   ftol=config.tolerance, xtol=config.tolerance, gtol=config.tolerance)
+    if not config.secant_jacobian:
+        return least_squares(fn, x0, jac="2-point", callback=_stop_when_slow(config.min_relative_improvement, stall_cost), **options).x
+    x = x0
+    for _ in range(1 + SECANT_RESTARTS):
+        secant = SecantJacobian(fn, high, config.min_relative_improvement)
+        result = least_squares(secant.fun, x, jac=secant, callback=_stop_when_stalled(secant, stall_cost), **options)
+        x = result.x
+        if result.status in (-2, 0) or secant.fresh:  # -2: stalled (our callback), 0: max_nfev reached
+            break
+    return x
+
+
+def _stop_when_stalled(secant: SecantJacobian, stall_cost: float) -> Callable[[object], None]:
+    """least_squares callback: end the stage once a step from a fresh Jacobian stalled at a cost <= stall_cost."""
+
+    def stop(intermediate_result) -> None:  # scipy passes the OptimizeResult by this name
+        if secant.stalled and 2.0 * float(intermediate_result.cost) <= stall_cost:  # scipy's cost: half the sum
+            raise StopIteration
+        secant.stalled = False
+
+    return stop
+
+
+def _stop_when_slow(min_relative_improvement: float, stall_cost: float) -> Callable[[object], None]:
+    """least_squares callback: end the stage after an iteration that lowered the cost by less than this share,
+    at a cost <= stall_cost."""
+    previous = [math.inf]
+
+    def stop(intermediate_result) -> None:  # scipy passes the OptimizeResult by this name
+        cost = 2.0 * float(intermediate_result.cost)  # scipy's cost is half the sum of squares
+        if previous[0] - cost < min_relative_improvement * previous[0] and cost <= stall_cost:
+            raise StopIteration
+        previous[0] = cost
+
+    return stop
+
+
+def _budget_clock() -> float:
+    """The clock of FitConfig.time_budget_seconds: this process's CPU seconds (all threads)."""
+    return time.process_time()
+
+
 PREFIX_BUDGET_SHARE = 0.6  # of a component's time budget for the prefix stages; the rest for the whole video
 
 
 class _BudgetExhausted(Exception):
     """Raised inside the objective when FitConfig.time_budget_seconds has run out."""
+
+
+class _AtNoiseFloor(Exception):
+    """Raised inside the objective when a stage's RMSE has reached its noise floor."""
 
 
 # --------------------------------------------------------------------------
@@ -655,6 +765,14 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
     restitution; ``provenance`` holds the fit report) and the report. The
     stages (docs/identification.md) are the functions called below, in order.
     """
+    # One BLAS thread: the optimiser's matrices are small, and threaded OpenBLAS on a
+    # shared, loaded machine spent 255x longer per SVD than one thread (docs/benchmarks.md).
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _identify(observations, config)
+
+
+def _identify(observations: Observations, config: FitConfig) -> tuple[World, FitReport]:
+    """identify's stages, in order (docs/identification.md)."""
     began = time.perf_counter()
     usable, flags = _observed_tracks(observations)
     candidates, track_fits = _local_fits(usable, observations, config)
@@ -668,7 +786,7 @@ def identify(observations: Observations, config: FitConfig = FitConfig()) -> tup
     refinement = _Refinement(0, 0, 0)
     if config.joint:
         estimates, pair_e, refinement = _joint_refinement(
-            components, candidates, estimates, pair_e, default_e, defaulted, observations, config
+            components, candidates, estimates, pair_e, default_e, defaulted, observations, config, track_fits
         )
     if pair_e:
         # Bodies carry the typical restitution for collisions not seen yet.
@@ -828,13 +946,13 @@ class _Refinement:
 def _joint_refinement(
     components: Sequence[tuple[int, ...]], candidates: Sequence, estimates: dict[int, BodyEstimate],
     pair_e: dict[tuple[int, int], float], default_e: float, defaulted: dict[int, dict[str, str]],
-    observations: Observations, config: FitConfig,
+    observations: Observations, config: FitConfig, track_fits: Mapping[int, TrackFit],
 ) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float], _Refinement]:
     """Stage 4: cumulative-prefix least squares per component with collisions, within the time budget.
     Updates ``defaulted`` (mass and restitution of the bodies in replayed collisions are identified)."""
     estimates, pair_e = dict(estimates), dict(pair_e)
     evaluations = stages = skipped_stages = 0
-    deadline = time.perf_counter() + config.time_budget_seconds
+    deadline = _budget_clock() + config.time_budget_seconds
     joint_components = [c for c in components if any(k.bodies[0] in c for k in candidates)]
     pair_frames: dict[tuple[int, int], int] = {}
     for c in candidates:
@@ -850,9 +968,10 @@ def _joint_refinement(
                            tuple(estimates[b].skid_friction is not None and b in colliding for b in component))
         # Components left share the time left equally.
         left = len(joint_components) - joint_components.index(component)
-        component_deadline = time.perf_counter() + max(deadline - time.perf_counter(), 0.0) / left
+        component_deadline = _budget_clock() + max(deadline - _budget_clock(), 0.0) / left
+        floor = config.noise_floor_factor * _local_rmse([track_fits[b] for b in component])
         updated, fitted_e, used, skipped = _refine_component(
-            packing, estimates, pair_e, pair_frames, horizons, observations, config, component_deadline
+            packing, estimates, pair_e, pair_frames, horizons, observations, config, component_deadline, floor
         )
         estimates.update(updated)
         pair_e.update(fitted_e)

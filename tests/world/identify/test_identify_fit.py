@@ -184,3 +184,49 @@ def test_identify_keeps_the_observed_collisions():
     kept = [((a, b), f) for a, b, f in fitted.observed_collisions]
     assert [p for p, _ in kept] == [p for p, _ in truth]
     assert all(abs(f - g) <= 2 for (_, f), (_, g) in zip(kept, truth))
+
+
+TWO_COMPONENTS = World(
+    (
+        _body(0, "cylinder", (-2.0, -1.5), (2.6, 0.05), 1.0, 0.08, "red"),
+        _body(1, "cube", (-0.4, -1.5), (0.0, 0.0), 1.6, 0.1, "blue", "metal"),
+        _body(2, "cylinder", (1.8, 1.5), (-2.2, 0.1), 0.8, 0.06, "green"),
+        _body(3, "cylinder", (0.4, 1.6), (0.0, 0.0), 1.2, 0.09, "yellow", "metal"),
+    ),
+    observed_frames=90,
+)
+
+
+def test_components_are_fitted_apart_as_if_alone():
+    """Two pairs that never touch each other: fitting the scene equals fitting each pair on its own."""
+    observations = _observe(TWO_COMPONENTS, TWO_COMPONENTS.observed_frames)
+    whole, report = identify(observations)
+    assert sorted(report.components) == [(0, 1), (2, 3)]
+    for pair in report.components:
+        alone, _ = identify(replace(observations, objects=tuple(t for t in observations.objects if t.id in pair)))
+        for body_id in pair:
+            ours, theirs = whole.body(body_id), alone.body(body_id)
+            np.testing.assert_allclose(ours.initial.position, theirs.initial.position, atol=1e-4)
+            np.testing.assert_allclose(ours.initial.velocity, theirs.initial.velocity, atol=1e-3)
+            assert ours.friction == pytest.approx(theirs.friction, rel=1e-3)
+            assert ours.mass == pytest.approx(theirs.mass, rel=1e-3)
+        assert dict(((a, b), e) for a, b, e in whole.pair_restitution)[pair] == pytest.approx(
+            dict(((a, b), e) for a, b, e in alone.pair_restitution)[pair], abs=1e-3)
+    # And the fit is right: each pair's collision is replayed.
+    truth = {pair for pair, _ in rollout_collisions(simulate(TWO_COMPONENTS))}
+    assert truth == {(0, 1), (2, 3)}
+    assert {pair for pair, _ in rollout_collisions(simulate(whole))} == truth
+
+
+def test_a_fit_at_the_noise_floor_stops_early_and_keeps_the_accuracy():
+    """Tracks with 5 mm noise: stopping at the local fits' noise floor saves rollouts, not accuracy."""
+    rng = np.random.default_rng(11)
+    exact = _observe(CHAIN, CHAIN.observed_frames)
+    noisy = replace(exact, objects=tuple(
+        replace(t, positions=t.positions + np.c_[rng.normal(0, 0.005, (t.positions.shape[0], 2)), np.zeros(t.positions.shape[0])])
+        for t in exact.objects))
+    floor, with_floor = identify(noisy)
+    full, without_floor = identify(noisy, FitConfig(noise_floor_factor=0.0, min_relative_improvement=0.0))
+    assert with_floor.function_evaluations < without_floor.function_evaluations
+    assert with_floor.rmse <= without_floor.rmse + 1e-3
+    assert [pair for pair, _ in rollout_collisions(simulate(floor))] == [pair for pair, _ in rollout_collisions(simulate(CHAIN))]

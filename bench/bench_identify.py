@@ -62,6 +62,7 @@ NEAR_METRES = 0.10  # "within 10 cm"
 PREDICTORS = ("world", "hold", "const-vel")
 ROLLING_SPHERES = "roll-spheres"  # the same fit with spheres that skid then roll (FitConfig(rolling_spheres=True))
 FORWARD_JACOBIAN = "fd-jacobian"  # the same fit with a forward-difference Jacobian every iteration (FitConfig(secant_jacobian=False))
+FRICTIONLESS = "frictionless"  # the same fit without friction between bodies (FitConfig(friction_between_bodies=False))
 
 
 def _future_truth(annotation: Path, index: str) -> dict | None:
@@ -120,7 +121,7 @@ def _noisy(observations: Observations, sigma: float, seed: int) -> Observations:
 
 
 def _simulator(method: str):
-    if method in ("analytic", ROLLING_SPHERES, FORWARD_JACOBIAN):
+    if method in ("analytic", ROLLING_SPHERES, FORWARD_JACOBIAN, FRICTIONLESS):
         return None, lambda world, edits, horizon: simulate(world, edits, horizon)
 
     def stepper(world, edits, horizon):
@@ -162,7 +163,8 @@ def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None =
     if cached is None:
         began, began_cpu = time.perf_counter(), time.process_time()
         world, report = identify(observations, FitConfig(simulator=fit_simulator, rolling_spheres=method == ROLLING_SPHERES,
-                                                         secant_jacobian=method != FORWARD_JACOBIAN))
+                                                         secant_jacobian=method != FORWARD_JACOBIAN,
+                                                         friction_between_bodies=method != FRICTIONLESS))
         seconds, evaluations = time.perf_counter() - began, report.function_evaluations
         cpu_seconds, budget_hit = time.process_time() - began_cpu, report.budget_exhausted
     else:
@@ -317,6 +319,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="also fit with spheres that skid then roll (FitConfig(rolling_spheres=True)), same run")
     parser.add_argument("--forward-jacobian", action="store_true",
                         help="also fit with a forward-difference Jacobian every iteration (FitConfig(secant_jacobian=False)), same run")
+    parser.add_argument("--frictionless", action="store_true",
+                        help="also fit without friction between bodies (FitConfig(friction_between_bodies=False)), same run")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--json", type=Path, help="write every per-scene row here")
     parser.add_argument("--worlds", type=Path, default=None,
@@ -332,6 +336,8 @@ def main(argv: list[str] | None = None) -> int:
         tasks += [(a, noise, ROLLING_SPHERES, None) for noise in noises for a in annotations]
     if args.forward_jacobian:
         tasks += [(a, noise, FORWARD_JACOBIAN, None) for noise in noises for a in annotations]
+    if args.frictionless:
+        tasks += [(a, noise, FRICTIONLESS, None) for noise in noises for a in annotations]
     if args.baseline:
         for a in annotations[: args.baseline_scenes]:
             tasks += [(a, noise, "fixed-1/100", None) for noise in noises]

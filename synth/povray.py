@@ -187,7 +187,8 @@ def _command(binary: str, spec: SceneSpec, frames: int, first: int, last: int) -
         binary, "scene.pov", f"+W{width}", f"+H{height}", "+FP", "File_Gamma=sRGB", "Output_Alpha=off",
         f"+A{ANTIALIAS_THRESHOLD}", "+AM1", f"+R{ANTIALIAS_DEPTH}", "-J",
         "-D", "-V", "+WT1",
-        "+KFI0", f"+KFF{frames - 1}", f"+SF{first}", f"+EF{last}", "+Oframe_.ppm",
+        # At least two animation frames: with one, POV-Ray leaves the frame number out of the file name.
+        "+KFI0", f"+KFF{max(frames - 1, 1)}", f"+SF{first}", f"+EF{last}", "+Oframe_.ppm",
     ]
 
 

@@ -32,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 from synth.looks import CLEVRER_FLOOR_FILE, clevrer_floor_png
-from synth.povray_look import PovFinish, PovLight, PovLook, povray_look_seed_sequence, sample_povray_look
+from synth.povray_look import AREA_LIGHT_SAMPLES, PovFinish, PovLight, PovLook, povray_look_seed_sequence, sample_povray_look
 from synth.scene import SceneSpec
 from synth.simulate import SimResult
 from world.scene3d.types import quaternion_matrix
@@ -109,9 +109,9 @@ def _floor(look: PovLook) -> str:
 def _light(light: PovLight) -> str:
     text = f"light_source {{ {_vec(_pov(light.position))} color rgb {_vec(light.rgb)}"
     if light.area_size > 0:
-        n = 3
+        n = AREA_LIGHT_SAMPLES
         text += (f" area_light {_vec([light.area_size, 0, 0])}, {_vec([0, 0, light.area_size])}, {n}, {n}"
-                 " adaptive 1 jitter circular orient")
+                 " adaptive 0 jitter circular orient")
     return text + " }\n"
 
 

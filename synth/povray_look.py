@@ -61,7 +61,7 @@ LIGHT_ELEVATION_DEG = (30.0, 78.0)
 LIGHT_DISTANCE = (7.0, 14.0)  # m from the camera's look-at point
 AREA_LIGHT_SIZE = (0.6, 2.5)  # m, side of a square area light
 AREA_LIGHT_SHARE = 0.6  # share of lights that are area lights (soft shadows)
-AREA_LIGHT_SAMPLES = 3  # 3 x 3 shadow rays (adaptive, jittered): soft but affordable
+AREA_LIGHT_SAMPLES = 3  # 3 x 3 shadow rays (adaptive 0: corners first, jittered): soft but affordable
 
 
 @dataclass(frozen=True)

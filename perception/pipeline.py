@@ -398,7 +398,7 @@ def perceive_frames(frames: np.ndarray, camera: Camera, *, fps: float = 25.0, pr
         timings[f"{stage}_cpu_s"] = time.process_time() - cpu
         return result
 
-    segmenter = segmenter or ClassicalSegmenter()
+    segmenter = segmenter or ClassicalSegmenter(camera, object_size)
     segments = timed("segment", lambda: segmenter.segment(frames, progress=progress))
     tracks = timed("track", lambda: (tracker or HungarianTracker(object_size)).track(segments, camera))
     lifted = timed("lift", lambda: (lifter or PrimitiveLifter(object_size)).lift(frames, segments, tracks, camera, progress=progress))

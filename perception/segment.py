@@ -25,7 +25,7 @@ from perception.background import (
     Background,
     estimate_background,
 )
-from perception.geometry import primitive_window, silhouette
+from perception.geometry import primitive_window, ray_depths, window_rays
 from perception.lift import fit_primitive, initial_centre
 from perception.types import NEUTRAL, Detection, FrameSegments
 from world.observations import DEFAULT_OBJECT_SIZE
@@ -171,6 +171,7 @@ PIECE_GAP = 3  # px: pieces closer than this (box to box) are candidates for one
 ONE_OBJECT_AREA = 1.35  # union area / fitted cylinder silhouette area above which it is more than one object
                         # (a cube's top is 4/pi of a disc's; two objects are about 2)
 PIECE_COVERAGE = 0.75  # share of each piece's pixels inside the fitted primitive's silhouette
+UNION_SEARCH_PX = 4  # px: search radius of the union's fit around its centroid's ray (extended while at the edge)
 ENVELOPES = (("cylinder", 0.0), ("cube", 0.0), ("cube", np.pi / 4))  # primitives whose silhouettes may hold a piece
 
 
@@ -201,23 +202,21 @@ def one_object(camera: Camera, size: float, labels: np.ndarray, a: Detection, b:
     reach = primitive_window(camera, "cube", start, size, margin=PIECE_GAP)  # the widest primitive footprint
     if reach.empty or (union.ys.max() - union.ys.min() >= reach.shape[0] or union.xs.max() - union.xs.min() >= reach.shape[1]):
         return False  # cheap test first: the union does not fit in one object's footprint
-    fit = fit_primitive(camera, "cylinder", start, size, 0.0, labels, union)
+    fit = fit_primitive(camera, "cylinder", start, size, 0.0, labels, union, radii=(UNION_SEARCH_PX,))
     if fit.silhouette_area == 0 or union.area > ONE_OBJECT_AREA * fit.silhouette_area:
         return False
-    inside_a = inside_b = 0.0
+    window = primitive_window(camera, "cube", fit.centre, size)  # holds every envelope's silhouette
+    if window.empty:
+        return False
+    directions = window_rays(camera, window)  # shared by the envelopes' ray casts
+    inside = np.zeros(2)
     for kind, yaw in ENVELOPES:
-        window, sil = silhouette(camera, kind, fit.centre, size, yaw)
-        if window.empty:
-            continue
-        for piece in (a, b):
+        sil = np.isfinite(ray_depths(camera, kind, fit.centre, size, yaw, window, directions))
+        for n, piece in enumerate((a, b)):
             ys, xs = piece.ys - window.top, piece.xs - window.left
             ok = (ys >= 0) & (ys < sil.shape[0]) & (xs >= 0) & (xs < sil.shape[1])
-            share = float(sil[ys[ok], xs[ok]].sum()) / piece.area
-            if piece is a:
-                inside_a = max(inside_a, share)
-            else:
-                inside_b = max(inside_b, share)
-    return inside_a >= PIECE_COVERAGE and inside_b >= PIECE_COVERAGE
+            inside[n] = max(inside[n], float(sil[ys[ok], xs[ok]].sum()) / piece.area)
+    return bool(inside.min() >= PIECE_COVERAGE)
 
 
 def _piece_key(piece: Detection) -> tuple[int, int, int, int]:

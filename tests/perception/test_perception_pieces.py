@@ -8,14 +8,15 @@ reflection splits it) and two touching objects of different colours.
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
 from perception.background import FLOOR, OBJECT, Background
-from perception.geometry import primitive_window, ray_depths
-from perception.pipeline import _merged_state, _pooled_shape_scores, _redecide_attributes, perceive_frames
+from perception.geometry import primitive_window, ray_depths, silhouette
+from perception.pipeline import _explained_by, _merged_state, _pooled_shape_scores, _redecide_attributes, perceive_frames
 from perception.segment import merge_object_pieces, segment_frame
 from perception.types import Attributes, Detection, FrameSegments, LiftedTrack, TrackState
 from world.camera import backproject_to_height
@@ -136,3 +137,24 @@ def test_a_joined_track_redecides_colour_and_shape_over_all_its_frames():
                                       frames, segments)
     assert (attributes.color, attributes.shape) == ("red", "cube")
     assert attributes.shape_score == pytest.approx((2 * 0.6 + 6 * 0.9) / 8)
+
+
+def test_a_piece_inside_another_tracks_primitive_is_explained_by_it_but_a_neighbour_is_not():
+    centre = _floor_point(0.5 * CAMERA.width, 0.5 * CAMERA.height)
+    frame_ids = np.arange(10)
+    anchor = LiftedTrack(0, Attributes("blue", "cylinder", "metal", 1.0, shape_score=0.9), frame_ids,
+                         np.tile(centre, (10, 1)), np.full(10, np.nan), np.ones(10, bool), np.ones(10))
+
+    def state(track_id, at, upper_only):
+        window, sil = silhouette(CAMERA, "cylinder", at, SIZE)
+        ys, xs = np.nonzero(sil)
+        if upper_only:  # the highlight part: the upper third of the silhouette
+            keep = ys < np.percentile(ys, 33)
+            ys, xs = ys[keep], xs[keep]
+        det = Detection(0, (ys + window.top).astype(np.int32), (xs + window.left).astype(np.int32), 5, False, 1)
+        return TrackState(track_id, 5, {int(f): replace(det, frame=int(f)) for f in frame_ids})
+
+    assert _explained_by(CAMERA, SIZE, state(1, centre, upper_only=True), anchor)
+    neighbour = centre + np.array([2.0 * SIZE + 0.01, 0.0, 0.0])
+    assert not _explained_by(CAMERA, SIZE, state(2, neighbour, upper_only=False), anchor)
+    assert not _explained_by(CAMERA, SIZE, state(3, centre, upper_only=False), anchor)  # a whole object is no piece

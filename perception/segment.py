@@ -171,7 +171,7 @@ PIECE_GAP = 3  # px: pieces closer than this (box to box) are candidates for one
 ONE_OBJECT_AREA = 1.35  # union area / fitted cylinder silhouette area above which it is more than one object
                         # (a cube's top is 4/pi of a disc's; two objects are about 2)
 PIECE_COVERAGE = 0.75  # share of each piece's pixels inside the fitted primitive's silhouette
-UNION_SEARCH_PX = 4  # px: search radius of the union's fit around its centroid's ray (extended while at the edge)
+UNION_SEARCH_PX = 4  # px: search radius of the larger piece's fit around its centroid's ray (extended while at the edge)
 ENVELOPES = (("cylinder", 0.0), ("cube", 0.0), ("cube", np.pi / 4))  # primitives whose silhouettes may hold a piece
 
 
@@ -194,15 +194,17 @@ def _near(a: tuple[int, int, int, int], b: tuple[int, int, int, int], gap: int =
 
 
 def one_object(camera: Camera, size: float, labels: np.ndarray, a: Detection, b: Detection) -> bool:
-    """Whether two nearby pieces are one object: one primitive of half size ``size`` (m) fitted to their union
-    holds both (each has >= PIECE_COVERAGE of its pixels inside a cylinder's or cube's silhouette at the
-    fitted centre) and the union is no larger than one object's projection (ONE_OBJECT_AREA)."""
+    """Whether two nearby pieces are one object: one primitive of half size ``size`` (m) fitted to the larger
+    piece holds both (each has >= PIECE_COVERAGE of its pixels inside a cylinder's or cube's silhouette at the
+    fitted centre) and their union is no larger than one object's projection (ONE_OBJECT_AREA)."""
     union = _union(a, b)
-    start = initial_centre(camera, union, size)
-    reach = primitive_window(camera, "cube", start, size, margin=PIECE_GAP)  # the widest primitive footprint
+    reach = primitive_window(camera, "cube", initial_centre(camera, union, size), size, margin=PIECE_GAP)  # widest footprint
     if reach.empty or (union.ys.max() - union.ys.min() >= reach.shape[0] or union.xs.max() - union.xs.min() >= reach.shape[1]):
         return False  # cheap test first: the union does not fit in one object's footprint
-    fit = fit_primitive(camera, "cylinder", start, size, 0.0, labels, union, radii=(UNION_SEARCH_PX,))
+    # The primitive is fitted to the larger piece alone (the other piece's pixels count neither for nor against
+    # it): the visible part of a second object next to it then falls outside, a piece of the same object inside.
+    larger = a if a.area >= b.area else b
+    fit = fit_primitive(camera, "cylinder", initial_centre(camera, larger, size), size, 0.0, labels, larger, radii=(UNION_SEARCH_PX,))
     if fit.silhouette_area == 0 or union.area > ONE_OBJECT_AREA * fit.silhouette_area:
         return False
     window = primitive_window(camera, "cube", fit.centre, size)  # holds every envelope's silhouette

@@ -61,19 +61,27 @@ def primitive_window(camera: Camera, kind: str, centre: np.ndarray, size: float,
     return Box2D(top, bottom, left, right)
 
 
-def ray_depths(camera: Camera, kind: str, centre: np.ndarray, size: float, yaw: float, window: Box2D) -> np.ndarray:
+def window_rays(camera: Camera, window: Box2D) -> np.ndarray:
+    """(h, w, 3) world ray directions of a window's pixels (camera-depth parametrised), shared by ray casts over it."""
+    v, u = np.mgrid[window.top:window.bottom, window.left:window.right].astype(float)
+    return pixel_rays(camera, u, v)
+
+
+def ray_depths(camera: Camera, kind: str, centre: np.ndarray, size: float, yaw: float, window: Box2D,
+               directions: np.ndarray | None = None) -> np.ndarray:
     """Ray-cast one primitive over a pixel window.
 
     kind: sphere (radius = size), cube (half side = size, yaw about +z),
-    cylinder (radius = half height = size, axis +z). Returns (h, w) float
+    cylinder (radius = half height = size, axis +z). directions: window_rays(camera, window) when
+    several casts share the window (e.g. cube yaws). Returns (h, w) float
     ray parameter of the first hit (proportional to camera depth), inf
     where the ray misses.
     """
     h, w = window.shape
     if h == 0 or w == 0:
         return np.full((h, w), np.inf)
-    v, u = np.mgrid[window.top:window.bottom, window.left:window.right].astype(float)
-    directions = pixel_rays(camera, u, v)  # (h, w, 3), camera-depth parametrised (z_cam = t)
+    if directions is None:
+        directions = window_rays(camera, window)  # (h, w, 3), camera-depth parametrised (z_cam = t)
     origin = np.asarray(camera.position) - np.asarray(centre, float)  # ray origin relative to the centre
     if kind == "sphere":
         return _hit_sphere(origin, directions, size)
@@ -117,12 +125,17 @@ def _hit_cylinder(origin: np.ndarray, d: np.ndarray, radius: float, half_height:
 
 
 def _hit_box(origin: np.ndarray, d: np.ndarray, half: float) -> np.ndarray:
+    # slab method, one axis at a time: min/max over a trailing axis of length 3 is far slower in numpy
+    t_near = np.full(d.shape[:-1], -np.inf)
+    t_far = np.full(d.shape[:-1], np.inf)
     with np.errstate(divide="ignore", invalid="ignore"):
-        inv = 1.0 / np.where(np.abs(d) < 1e-12, 1e-12, d)
-        t1 = (-half - origin) * inv
-        t2 = (half - origin) * inv
-    t_near = np.max(np.minimum(t1, t2), axis=-1)
-    t_far = np.min(np.maximum(t1, t2), axis=-1)
+        for axis in range(3):
+            component = d[..., axis]
+            inv = 1.0 / np.where(np.abs(component) < 1e-12, 1e-12, component)
+            t1 = (-half - origin[axis]) * inv
+            t2 = (half - origin[axis]) * inv
+            np.maximum(t_near, np.minimum(t1, t2), out=t_near)
+            np.minimum(t_far, np.maximum(t1, t2), out=t_far)
     return np.where((t_near <= t_far) & (t_far > 0), t_near, np.inf)
 
 

@@ -20,7 +20,7 @@ import numpy as np
 from scipy.signal import correlate
 
 from perception.background import FLOOR
-from perception.geometry import ground_jacobian, silhouette
+from perception.geometry import ground_jacobian, primitive_window, ray_depths, silhouette, window_rays
 from world.camera import backproject_to_height
 from perception.types import Detection
 
@@ -122,9 +122,19 @@ def fit_cube(camera, start: np.ndarray, size: float, labels: np.ndarray, detecti
              yaws: np.ndarray = CUBE_YAWS) -> Fit:
     """Cube fit over a set of yaws: coarse position with the middle yaw, then the best yaw, then refine."""
     base = fit_primitive(camera, "cube", start, size, float(yaws[len(yaws) // 2]), labels, detection, radii=(6,))
-    best = max((Fit(base.centre, float(y), *overlap_score(camera, "cube", base.centre, size, float(y), labels, detection))
-                for y in yaws), key=lambda f: f.score)
-    return fit_primitive(camera, "cube", best.centre, size, best.yaw, labels, detection, radii=(2,))
+    # the window does not depend on yaw: one set of rays and one evidence window for all yaws
+    window = primitive_window(camera, "cube", base.centre, size)
+    best_yaw, best_score = float(yaws[len(yaws) // 2]), -1.0
+    if not window.empty:
+        directions = window_rays(camera, window)
+        ev = evidence_window(labels, detection, window.top, window.bottom, window.left, window.right)
+        segment, floor = ev == 2.0, ev == -1.0
+        for yaw in yaws:
+            sil = np.isfinite(ray_depths(camera, "cube", base.centre, size, float(yaw), window, directions))
+            score = float((segment & sil).sum()) / (detection.area + float((floor & sil).sum()))
+            if score > best_score:
+                best_yaw, best_score = float(yaw), score
+    return fit_primitive(camera, "cube", base.centre, size, best_yaw, labels, detection, radii=(2,))
 
 
 def initial_centre(camera, detection: Detection, size: float) -> np.ndarray:

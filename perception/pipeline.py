@@ -89,9 +89,8 @@ class PrimitiveLifter:
     def __init__(self, object_size: float = DEFAULT_OBJECT_SIZE) -> None:
         self.size = object_size
 
-    def decide_shape(self, camera: Camera, track: TrackState, segments: list[FrameSegments],
-                     frames_used: list[int]) -> tuple[str, float, float, dict[str, float]]:
-        """(best kind, its margin over the second, its mean overlap, mean overlap per kind)."""
+    def shape_scores(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> dict[str, list[float]]:
+        """Per primitive kind, the silhouette overlap J of its best fit on each of ``frames_used``."""
         scores = {kind: [] for kind in SHAPE_KINDS}
         for frame in frames_used:
             det = track.detections[frame]
@@ -100,31 +99,28 @@ class PrimitiveLifter:
             scores["sphere"].append(fit_primitive(camera, "sphere", start, self.size, 0.0, labels, det).score)
             scores["cylinder"].append(fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, det).score)
             scores["cube"].append(fit_cube(camera, start, self.size, labels, det).score)
-        means = {kind: float(np.mean(v)) if v else 0.0 for kind, v in scores.items()}
-        ranked = sorted(means, key=means.get, reverse=True)
-        return ranked[0], means[ranked[0]] - means[ranked[1]], means[ranked[0]], means
+        return scores
+
+    def decide_shape(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> tuple[str, float, float]:
+        """(kind, margin over the runner-up, mean J of the kind) on ``frames_used``."""
+        return rank_shapes(self.shape_scores(camera, track, segments, frames_used))
 
     def lift(self, frames: np.ndarray, segments: list[FrameSegments], tracks: list[TrackState],
              camera: Camera, *, progress: bool = False) -> list[LiftedTrack]:
         iterator = tracks
         if progress:
             iterator = tqdm(tracks, desc="lift", unit="object")
-        lifted, appearance = [], {}
+        lifted, appearance, states, scores_of = [], {}, {}, {}
         for track in iterator:
             isolated = _isolated_frames(track, segments)
             basis = _spread(isolated, MAX_ATTRIBUTE_FRAMES) or _spread(sorted(track.detections), MAX_ATTRIBUTE_FRAMES)
-            kind, margin, shape_score, overlaps = self.decide_shape(camera, track, segments, basis)
+            scores_of[track.id] = self.shape_scores(camera, track, segments, basis)
+            states[track.id] = track
+            kind, margin, shape_score = rank_shapes(scores_of[track.id])
             if shape_score < MIN_SHAPE_SCORE:  # no primitive of the known size explains it: a fragment, not an object
                 continue
             appearance_frames = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
-            detections = [track.detections[f] for f in appearance_frames]
-            votes = color_votes(detections, frames)
-            color = color_of(detections, frames, votes)
-            material, metal_probability = material_of(detections, frames, segments, color, kind)
-            attributes = Attributes(color=color, shape=kind, material=material, confidence=float(np.clip(margin * 5, 0, 1)),
-                                    metal_probability=metal_probability, shape_score=shape_score,
-                                    color_probabilities=color_probabilities(votes), shape_probabilities=shape_probabilities(overlaps),
-                                    material_probabilities=material_probabilities(metal_probability))
+            attributes = decide_attributes([track.detections[f] for f in appearance_frames], frames, segments, scores_of[track.id])
             frame_ids, positions, yaws, weights = [], [], [], []
             previous: Fit | None = None
             reference: Detection | None = None  # the detection the previous fit was computed on
@@ -151,7 +147,117 @@ class PrimitiveLifter:
             visible = centre_in_view(camera, positions)
             lifted.append(LiftedTrack(track.id, attributes, frame_ids, positions, yaws, visible, weights))
             appearance[track.id] = track_appearance(track, frames)
-        return _renumber(_associate(lifted, self.size, appearance))
+        def explained(piece: LiftedTrack, anchor: LiftedTrack) -> bool:
+            return _explained_by(camera, self.size, states[piece.id], anchor)
+
+        def decide(group: list[LiftedTrack], source: LiftedTrack) -> Attributes:
+            merged, pooled = _merged_state(group, states), _pooled_shape_scores(group, states, scores_of)
+            # the joined track keeps the source's id: later joins (chains of joined groups) see all its frames
+            states[source.id], scores_of[source.id] = merged, pooled
+            return _redecide_attributes(merged, pooled, frames, segments)
+
+        return _renumber(_associate(lifted, self.size, appearance, explained=explained, decide=decide))
+
+
+def mean_overlaps(scores: dict[str, list[float]]) -> dict[str, float]:
+    """Mean silhouette overlap J per primitive kind (0 for a kind without frames)."""
+    return {kind: float(np.mean(v)) if v else 0.0 for kind, v in scores.items()}
+
+
+def rank_shapes(scores: dict[str, list[float]]) -> tuple[str, float, float]:
+    """(kind, margin over the runner-up, mean J of the kind) from per-frame overlaps per primitive kind."""
+    means = mean_overlaps(scores)
+    ranked = sorted(means, key=means.get, reverse=True)
+    return ranked[0], means[ranked[0]] - means[ranked[1]], means[ranked[0]]
+
+
+def decide_attributes(detections: list[Detection], frames: np.ndarray, segments: list[FrameSegments],
+                      scores: dict[str, list[float]]) -> Attributes:
+    """Colour, shape and material of one track, each with its probabilities: colour and material by the
+    attribute rules on ``detections`` (frames spread over the track), shape from the per-frame primitive
+    overlaps ``scores``. The one place Attributes are built, for tracklets and for joined tracks alike."""
+    kind, margin, shape_score = rank_shapes(scores)
+    votes = color_votes(detections, frames)
+    color = color_of(detections, frames, votes)
+    material, metal_probability = material_of(detections, frames, segments, color, kind)
+    return Attributes(color=color, shape=kind, material=material, confidence=float(np.clip(margin * 5, 0, 1)),
+                      metal_probability=metal_probability, shape_score=shape_score,
+                      color_probabilities=color_probabilities(votes), shape_probabilities=shape_probabilities(mean_overlaps(scores)),
+                      material_probabilities=material_probabilities(metal_probability))
+
+
+EXPLAINED_SHARE = 0.8  # share of a tracklet's pixels inside another tracklet's fitted silhouette: a piece of that object
+EXPLAINED_FRAMES = 8  # common frames (spread) on which the explanation is checked
+PIECE_AREA = 0.6  # a piece's segments are smaller than this share of the anchor's silhouette (a whole object in front is not)
+
+
+def _explained_by(camera: Camera, size: float, piece: TrackState, anchor: LiftedTrack) -> bool:
+    """Whether a tracklet's segments lie inside another tracklet's fitted primitive (its silhouette at the
+    anchor's fitted pose) on most of their common frames: a piece of the anchor's object (a highlight or a
+    reflection tracked on its own), whose own fitted centre may be up to a radius off."""
+    common = [int(f) for f in anchor.frames if int(f) in piece.detections]
+    checked = _spread(common, EXPLAINED_FRAMES)
+    if not checked or len(common) < 0.5 * len(piece.detections):
+        return False
+    index = {int(f): k for k, f in enumerate(anchor.frames)}
+    inside = 0
+    for frame in checked:
+        k, det = index[frame], piece.detections[frame]
+        yaw = 0.0 if np.isnan(anchor.yaw[k]) else float(anchor.yaw[k])
+        window, sil = silhouette(camera, anchor.attributes.shape, anchor.positions[k], size, yaw)
+        if window.empty or det.area > PIECE_AREA * sil.sum():
+            continue
+        ys, xs = det.ys - window.top, det.xs - window.left
+        ok = (ys >= 0) & (ys < sil.shape[0]) & (xs >= 0) & (xs < sil.shape[1])
+        inside += float(sil[ys[ok], xs[ok]].sum()) / det.area >= EXPLAINED_SHARE
+    return inside > 0.5 * len(checked)
+
+
+def _merged_state(group: list[LiftedTrack], states: dict[int, TrackState]) -> TrackState:
+    """One TrackState holding every frame of a group's tracklets; a frame held by several gets the union of
+    their pixels (the pieces of one object) with the colour label of the largest."""
+    by_frame: dict[int, list[Detection]] = {}
+    for track in group:
+        for frame, det in states[track.id].detections.items():
+            by_frame.setdefault(frame, []).append(det)
+    detections = {}
+    for frame, parts in by_frame.items():
+        if len(parts) == 1:
+            detections[frame] = parts[0]
+            continue
+        largest = max(parts, key=lambda d: d.area)
+        flat = np.unique(np.concatenate([d.ys.astype(np.int64) * 100_000 + d.xs for d in parts]))
+        detections[frame] = Detection(frame, (flat // 100_000).astype(np.int32), (flat % 100_000).astype(np.int32), largest.hue_label,
+                                      any(d.touches_border for d in parts), largest.component, any(d.split for d in parts))
+    merged = TrackState(id=group[0].id, hue_label=states[group[0].id].hue_label, detections=detections)
+    merged.merged = set().union(*(states[t.id].merged for t in group))
+    return merged
+
+
+def _pooled_shape_scores(group: list[LiftedTrack], states: dict[int, TrackState],
+                         scores_of: dict[int, dict[str, list[float]]]) -> dict[str, list[float]]:
+    """Per-frame primitive overlaps of a group's tracklets pooled, leaving out a tracklet whose frames are
+    mostly held by a better supported one (a piece: its overlaps are those of a part)."""
+    pooled = {kind: [] for kind in SHAPE_KINDS}
+    held: set[int] = set()
+    for track in sorted(group, key=_support, reverse=True):
+        own = set(int(f) for f in states[track.id].detections)
+        if held and len(own & held) > 0.5 * len(own):
+            continue
+        held |= own
+        for kind in SHAPE_KINDS:
+            pooled[kind].extend(scores_of[track.id][kind])
+    return pooled
+
+
+def _redecide_attributes(merged: TrackState, pooled: dict[str, list[float]],
+                         frames: np.ndarray, segments: list[FrameSegments]) -> Attributes:
+    """Colour, shape and material of a joined track decided over ALL its frames: colour and material by the
+    attribute rules on frames spread over the whole joined track (``merged``: pieces of one frame united),
+    shape from the tracklets' pooled primitive overlaps (_pooled_shape_scores)."""
+    isolated = _isolated_frames(merged, segments)
+    chosen = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(merged.detections), MAX_APPEARANCE_FRAMES)
+    return decide_attributes([merged.detections[f] for f in chosen], frames, segments, pooled)
 
 
 def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: int, track: TrackState,
@@ -286,28 +392,33 @@ def _attribute_source(group: list[LiftedTrack]) -> LiftedTrack:
     return max(group, key=_support)
 
 
-def _join(group: list[LiftedTrack], appearance: dict[int, np.ndarray]) -> LiftedTrack:
-    """One track from tracklets of one object (frames merged by weight), with the attributes of
-    _attribute_source and its id; the joined appearance is the frame-weighted mean of the parts'."""
+def _join(group: list[LiftedTrack], appearance: dict[int, np.ndarray], decide=None) -> LiftedTrack:
+    """One track from tracklets of one object (frames merged by weight) with the id of _attribute_source
+    and attributes decided over all the tracklets' frames by ``decide(group, source)`` (without it, the
+    source's); the joined appearance is the frame-weighted mean of the parts'."""
     source = _attribute_source(group)
     ordered = sorted(group, key=_support, reverse=True)
     joined = ordered[0]
     for other in ordered[1:]:
         joined = _union(joined, other)
-    joined = replace(joined, id=source.id, attributes=source.attributes)
+    joined = replace(joined, id=source.id, attributes=source.attributes if decide is None else decide(group, source))
     counts = np.array([len(t.frames) for t in group], dtype=float)
     appearance[source.id] = np.average([appearance[t.id] for t in group], axis=0, weights=counts)
     return joined
 
 
-def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.ndarray] | None = None) -> list[LiftedTrack]:
+def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.ndarray] | None = None,
+               explained=None, decide=None) -> list[LiftedTrack]:
     """Global association of tracklets over the whole video.
 
     appearance: track id -> (4,) track_appearance; without it, the palette colour of each tracklet.
+    explained(piece, anchor) -> bool: the piece's segments lie inside the anchor's fitted primitive
+    (_explained_by); decide(group, source) -> Attributes of a joined track (_redecide_attributes).
 
     1. Duplicates: two tracklets whose centres stay closer than one object size on most common
-       frames are one object whatever colour or shape each was read as (two solid objects cannot be
-       that close; a metal object split into a lit and a dark piece gives two such tracklets).
+       frames, or one explained by the other's object, are one object whatever colour or shape each
+       was read as (two solid objects cannot be that close; a metal object split into a lit and a dark
+       piece gives two such tracklets, the piece's own fit up to a radius off).
     2. Fragments: a tracklet that starts after another one ended, near where that one was heading,
        with a speed it could have and a similar colour, continues it (an occlusion, a merge with a
        touching object, a lost detection, a colour re-read at a contact). All ends are assigned to
@@ -322,12 +433,12 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
             if common.size == 0:
                 continue
             gaps = np.linalg.norm(track.positions[ia, :2] - anchor.positions[ib, :2], axis=1)
-            if np.mean(gaps < size) > 0.5:
+            if np.mean(gaps < size) > 0.5 or (explained is not None and explained(track, anchor)):
                 group.append(track)
                 break
         else:
             groups.append([track])
-    kept = [_join(group, appearance) if len(group) > 1 else group[0] for group in groups]
+    kept = [_join(group, appearance, decide) if len(group) > 1 else group[0] for group in groups]
 
     count = len(kept)
     if count < 2:
@@ -346,7 +457,7 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
         while k in successor:
             k = successor[k]
             chain.append(kept[k])
-        result.append(_join(chain, appearance) if len(chain) > 1 else chain[0])
+        result.append(_join(chain, appearance, decide) if len(chain) > 1 else chain[0])
     return result
 
 
@@ -413,7 +524,7 @@ def perceive_frames(frames: np.ndarray, camera: Camera, *, fps: float = 25.0, pr
         timings[f"{stage}_cpu_s"] = time.process_time() - cpu
         return result
 
-    segmenter = segmenter or ClassicalSegmenter()
+    segmenter = segmenter or ClassicalSegmenter(camera, object_size)
     segments = timed("segment", lambda: segmenter.segment(frames, progress=progress))
     tracks = timed("track", lambda: (tracker or HungarianTracker(object_size)).track(segments, camera))
     lifted = timed("lift", lambda: (lifter or PrimitiveLifter(object_size)).lift(frames, segments, tracks, camera, progress=progress))

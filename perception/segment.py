@@ -25,8 +25,11 @@ from perception.background import (
     Background,
     estimate_background,
 )
+from perception.geometry import primitive_window, ray_depths, window_rays
+from perception.lift import fit_primitive, initial_centre
 from perception.types import NEUTRAL, Detection, FrameSegments
-from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, COLORS
+from world.observations import DEFAULT_OBJECT_SIZE
+from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, COLORS, Camera
 
 CHROMATIC = [c for c in COLORS if c != "gray"]
 _PROTOTYPES = np.array([np.asarray(PALETTE_RGB[c], float) / sum(PALETTE_RGB[c]) for c in CHROMATIC])
@@ -110,10 +113,16 @@ def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 
             # Minor colours inside a component are noise unless they form a sizeable piece.
         for value in np.unique(hue[hue >= NEUTRAL]):
             pieces, piece_count = ndi.label(hue == value)
+            # pixels of every piece from one pass (not one full-window comparison per piece)
+            all_y, all_x = np.nonzero(pieces)
+            piece_of = pieces[all_y, all_x]
+            order = np.argsort(piece_of, kind="stable")
+            bounds = np.cumsum(np.bincount(piece_of, minlength=piece_count + 1))
             for piece in range(1, piece_count + 1):
-                py, px = np.nonzero(pieces == piece)
-                if py.size < MIN_SEGMENT_AREA:
+                members = order[bounds[piece - 1]:bounds[piece]]
+                if members.size < MIN_SEGMENT_AREA:
                     continue
+                py, px = all_y[members], all_x[members]
                 ys, xs = (py + top).astype(np.int32), (px + left).astype(np.int32)
                 touches = bool(ys.min() == 0 or xs.min() == 0 or ys.max() == height - 1 or xs.max() == width - 1)
                 detections.append(Detection(frame_index, ys, xs, int(value), touches, component_id))
@@ -155,8 +164,109 @@ def _absorb_small_neutral(detections: list[Detection], frame: np.ndarray, backgr
     return result
 
 
+# One object = one segment. Pieces of one object (a metal body and its highlight read as two palette
+# colours, a reflection of the floor or of a neighbour inside a mirror-like object) are merged when
+# ONE primitive of the known size, projected with the known camera, explains their union.
+PIECE_GAP = 3  # px: pieces closer than this (box to box) are candidates for one object
+ONE_OBJECT_AREA = 1.35  # union area / fitted cylinder silhouette area above which it is more than one object
+                        # (a cube's top is 4/pi of a disc's; two objects are about 2)
+PIECE_COVERAGE = 0.75  # share of each piece's pixels inside the fitted primitive's silhouette
+UNION_SEARCH_PX = 4  # px: search radius of the larger piece's fit around its centroid's ray (extended while at the edge)
+ENVELOPES = (("cylinder", 0.0), ("cube", 0.0), ("cube", np.pi / 4))  # primitives whose silhouettes may hold a piece
+
+
+def _union(a: Detection, b: Detection) -> Detection:
+    """One detection from two pieces of one object, with the colour label of the larger piece (a grey body
+    keeps its label over small tinted reflections; a coloured body over its highlight)."""
+    label = a.hue_label if a.area >= b.area else b.hue_label
+    return Detection(a.frame, np.concatenate([a.ys, b.ys]), np.concatenate([a.xs, b.xs]), label,
+                     a.touches_border or b.touches_border, a.component, a.split or b.split)
+
+
+def _box(piece: Detection) -> tuple[int, int, int, int]:
+    """(left, right, top, bottom) inclusive pixel box."""
+    return int(piece.xs.min()), int(piece.xs.max()), int(piece.ys.min()), int(piece.ys.max())
+
+
+def _near(a: tuple[int, int, int, int], b: tuple[int, int, int, int], gap: int = PIECE_GAP) -> bool:
+    """Whether two _box boxes are within ``gap`` px of each other."""
+    return not (a[0] > b[1] + gap or b[0] > a[1] + gap or a[2] > b[3] + gap or b[2] > a[3] + gap)
+
+
+def one_object(camera: Camera, size: float, labels: np.ndarray, a: Detection, b: Detection) -> bool:
+    """Whether two nearby pieces are one object: one primitive of half size ``size`` (m) fitted to the larger
+    piece holds both (each has >= PIECE_COVERAGE of its pixels inside a cylinder's or cube's silhouette at the
+    fitted centre) and their union is no larger than one object's projection (ONE_OBJECT_AREA)."""
+    union = _union(a, b)
+    reach = primitive_window(camera, "cube", initial_centre(camera, union, size), size, margin=PIECE_GAP)  # widest footprint
+    if reach.empty or (union.ys.max() - union.ys.min() >= reach.shape[0] or union.xs.max() - union.xs.min() >= reach.shape[1]):
+        return False  # cheap test first: the union does not fit in one object's footprint
+    # The primitive is fitted to the larger piece alone (the other piece's pixels count neither for nor against
+    # it): the visible part of a second object next to it then falls outside, a piece of the same object inside.
+    larger = a if a.area >= b.area else b
+    fit = fit_primitive(camera, "cylinder", initial_centre(camera, larger, size), size, 0.0, labels, larger, radii=(UNION_SEARCH_PX,))
+    if fit.silhouette_area == 0 or union.area > ONE_OBJECT_AREA * fit.silhouette_area:
+        return False
+    window = primitive_window(camera, "cube", fit.centre, size)  # holds every envelope's silhouette
+    if window.empty:
+        return False
+    directions = window_rays(camera, window)  # shared by the envelopes' ray casts
+    inside = np.zeros(2)
+    for kind, yaw in ENVELOPES:
+        sil = np.isfinite(ray_depths(camera, kind, fit.centre, size, yaw, window, directions))
+        for n, piece in enumerate((a, b)):
+            ys, xs = piece.ys - window.top, piece.xs - window.left
+            ok = (ys >= 0) & (ys < sil.shape[0]) & (xs >= 0) & (xs < sil.shape[1])
+            inside[n] = max(inside[n], float(sil[ys[ok], xs[ok]].sum()) / piece.area)
+    return bool(inside.min() >= PIECE_COVERAGE)
+
+
+def _piece_key(piece: Detection) -> tuple[int, int, int, int]:
+    """A piece's pose, coarsely: centroid to 2 px, area to 5 %, colour (a resting object keeps its key)."""
+    u, v = piece.centroid
+    return int(round(u / 2)), int(round(v / 2)), int(round(np.log(piece.area) / 0.05)), piece.hue_label
+
+
+def merge_object_pieces(segments: FrameSegments, camera: Camera, size: float = DEFAULT_OBJECT_SIZE,
+                        decisions: dict | None = None) -> FrameSegments:
+    """The frame's segments with the pieces of one object merged (one_object), largest pieces first.
+
+    decisions: one_object's answers by the pair's coarse poses, shared over a video's frames (most
+    objects rest most of the time, so the same pair is judged once).
+    """
+    decisions = {} if decisions is None else decisions
+    detections = sorted(segments.detections, key=lambda d: d.area, reverse=True)
+    if len(detections) < 2:
+        return segments
+    boxes = [_box(d) for d in detections]
+    merged_any, k = False, 0
+    while k < len(detections):
+        for j in range(k + 1, len(detections)):
+            if not _near(boxes[k], boxes[j]):
+                continue
+            key = (_piece_key(detections[k]), _piece_key(detections[j]))
+            if key not in decisions:
+                decisions[key] = one_object(camera, size, segments.labels, detections[k], detections[j])
+            if decisions[key]:
+                detections[k] = _union(detections[k], detections.pop(j))
+                a, b = boxes[k], boxes.pop(j)
+                boxes[k] = (min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3]))
+                merged_any = True
+                break
+        else:
+            k += 1  # nothing (more) joins this piece
+    if not merged_any:
+        return segments
+    return FrameSegments(segments.frame, segments.labels, tuple(detections))
+
+
 class ClassicalSegmenter:
-    """Background difference + shadow rejection + colour split (no learned weights)."""
+    """Background difference + shadow rejection + colour split (no learned weights); with a camera, the pieces
+    of one object are merged into one segment (merge_object_pieces)."""
+
+    def __init__(self, camera: Camera | None = None, object_size: float = DEFAULT_OBJECT_SIZE) -> None:
+        self.camera = camera
+        self.object_size = object_size
 
     def segment(self, frames: np.ndarray, *, progress: bool = False, background: Background | None = None) -> list[FrameSegments]:
         background = estimate_background(frames) if background is None else background
@@ -164,4 +274,8 @@ class ClassicalSegmenter:
         if progress:
             iterator = tqdm(iterator, desc="segment", unit="frame")
         reference = background.image.astype(np.int16)  # once per video, not per frame
-        return [segment_frame(frames[f], background, f, reference) for f in iterator]
+        segments = [segment_frame(frames[f], background, f, reference) for f in iterator]
+        if self.camera is None:
+            return segments
+        decisions: dict = {}
+        return [merge_object_pieces(s, self.camera, self.object_size, decisions) for s in segments]

@@ -5,7 +5,7 @@ Each detection's centroid is back-projected to the plane of object centres
 constant velocity and are matched to detections of the same colour label by
 ground distance within a gate that widens while a track is unseen (occlusion,
 merges); a detection of another colour label is taken only by a track seen in
-the last RELABEL_MAX_GAP frames or within GATE_BASE of its prediction. A segment holding two same-coloured tracks
+the last RELABEL_MAX_GAP frames, or within GATE_BASE of its prediction after at most RELABEL_NEAR_MAX_GAP unseen frames. A segment holding two same-coloured tracks
 (objects that touch, also one merged into the other for up to SPLIT_MAX_GAP
 frames) and larger than one of them is split between them by k-means on pixel
 coordinates seeded at the predicted positions. Tracks seen in fewer than MIN_TRACK_FRAMES frames are dropped and
@@ -31,7 +31,9 @@ MIN_TRACK_FRAMES = 4
 MIN_TRACK_AREA = 150  # px: a real object is larger than this in at least one frame
 SPLIT_SECOND_AREA = 0.5  # a segment larger than the biggest owner's usual area plus this share of the next one's holds them all
 SPLIT_MAX_GAP = 30  # frames: a track unseen this long still claims its part of a same-coloured segment it sits in
-RELABEL_MAX_GAP = 2  # frames: a track unseen longer takes a detection of another colour label only within GATE_BASE
+RELABEL_MAX_GAP = 2  # frames: a track unseen longer takes a detection of another colour label only within GATE_BASE ...
+RELABEL_NEAR_MAX_GAP = 10  # frames: ... and only if unseen at most this long (a colour re-read follows a contact at once;
+                           # a track lost for longer would take another object entering where it was lost)
 
 
 class HungarianTracker:
@@ -62,7 +64,7 @@ class HungarianTracker:
                         continue
                     if det.hue_label == track.hue_label:
                         cost[i, j] = distance
-                    elif gap <= RELABEL_MAX_GAP or distance <= GATE_BASE:
+                    elif gap <= RELABEL_MAX_GAP or (distance <= GATE_BASE and gap <= RELABEL_NEAR_MAX_GAP):
                         # a colour re-read (metal highlights, contacts); only the widened gate of a lost track
                         # is kept to its own colour, so that it cannot grab another object passing by
                         cost[i, j] = distance + HUE_MISMATCH_COST

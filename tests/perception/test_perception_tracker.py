@@ -11,7 +11,7 @@ from world.types import COLORS
 
 SIZE = 0.2
 CAMERA = look_at_camera((0.0, -7.0, 6.0), (0.0, 0.0, 0.0))
-RED, BROWN, YELLOW = COLORS.index("red"), COLORS.index("brown"), COLORS.index("yellow")
+RED, BROWN, YELLOW, BLUE = COLORS.index("red"), COLORS.index("brown"), COLORS.index("yellow"), COLORS.index("blue")
 
 
 def _disc(frame: int, xy: tuple[float, float], hue: int, radius_px: float) -> tuple[np.ndarray, np.ndarray]:
@@ -52,6 +52,14 @@ def _frames(objects_per_frame: list[list[tuple]]) -> list[FrameSegments]:
 def test_a_lost_track_does_not_take_a_detection_of_another_colour():
     frames = [[((-1.0 + 0.03 * f, 0.0), RED)] for f in range(10)] + [[] for _ in range(10)]
     frames += [[((-1.0 + 0.03 * f, 1.0), BROWN)] for f in range(20, 30)]  # inside the widened gate, 1 m off the prediction
+    tracks = HungarianTracker(SIZE).track(_frames(frames), CAMERA)
+    assert len(tracks) == 2 and sorted(len(t.detections) for t in tracks) == [10, 10]
+
+
+def test_a_track_lost_long_does_not_take_another_colour_entering_where_it_was_lost():
+    # a red object lost at frame 10 (stopped behind something); 20 frames later a blue one enters 0.2 m from there
+    frames = [[((-1.0 + 0.03 * f, 0.0), RED)] for f in range(10)] + [[] for _ in range(20)]
+    frames += [[((-0.73 + 0.03 * (f - 30), 0.2), BLUE)] for f in range(30, 40)]
     tracks = HungarianTracker(SIZE).track(_frames(frames), CAMERA)
     assert len(tracks) == 2 and sorted(len(t.detections) for t in tracks) == [10, 10]
 

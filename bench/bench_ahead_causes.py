@@ -26,8 +26,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing
-import time
 from pathlib import Path
 
 import numpy as np
@@ -35,6 +33,7 @@ import numpy as np
 from bench.bench_identify import AHEAD_SECONDS, STILL_MOVING_SPEED
 from bench.metrics import match_events, rollout_collisions
 from bench.oracle_dataset import FUTURE_SECONDS
+from bench.runner import run_with_progress
 from synth.generate import sample_accepted_scene
 from synth.simulate import simulate as mujoco_simulate
 from world.identify.fit import FitConfig, identify
@@ -140,13 +139,7 @@ def main(argv: list[str] | None = None) -> int:
     if not annotations:
         raise SystemExit(f"no annotations under {args.dataset / 'annotations'}")
     tasks = [(a, args.seed, args.worlds, args.save_worlds, args.rolling_spheres) for a in annotations]
-    rows: list[dict] = []
-    began = time.perf_counter()
-    with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
-        for k, scene_rows in enumerate(pool.imap_unordered(_safe, tasks), 1):
-            rows += scene_rows
-            print(f"\r{k}/{len(tasks)} scenes ({time.perf_counter() - began:.0f} s)", end="", flush=True)
-    print()
+    rows = [row for scene_rows in run_with_progress(_safe, tasks, args.workers, "scenes") for row in scene_rows]
     for line in table(rows):
         print(line)
     if args.json:

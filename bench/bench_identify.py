@@ -40,7 +40,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import multiprocessing
 import time
 from dataclasses import replace
 from pathlib import Path
@@ -49,6 +48,7 @@ import numpy as np
 
 from bench.fixed_step import simulate_fixed_step
 from bench.metrics import GroundTruth, PrecisionRecall, match_events, rollout_collisions, score_world
+from bench.runner import run_with_progress
 from world.identify.fit import FitConfig, identify
 from world.io import world_from_dict
 from world.observations import Observations
@@ -341,13 +341,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.baseline:
         for a in annotations[: args.baseline_scenes]:
             tasks += [(a, noise, "fixed-1/100", None) for noise in noises]
-    rows = []
     began = time.perf_counter()
-    with multiprocessing.get_context("spawn").Pool(args.workers) as pool:
-        for k, row in enumerate(pool.imap_unordered(evaluate, tasks), 1):
-            rows.append(row)
-            print(f"\r{k}/{len(tasks)} fits ({time.perf_counter() - began:.0f} s)", end="", flush=True)
-    print()
+    rows = run_with_progress(evaluate, tasks, args.workers, "fits")
     print(f"# {args.dataset}: {len(annotations)} scenes, {args.workers} workers, {time.perf_counter() - began:.0f} s")
     for line in summarise(rows):
         print(line)

@@ -346,18 +346,19 @@ def clevrer_floor_png() -> bytes:
     return resources.files("synth").joinpath("data", CLEVRER_FLOOR_FILE).read_bytes()
 
 
+def rounded(value):
+    """A JSON-able value with every float rounded to 5 decimals (compact ground-truth files; -0.0 -> 0.0)."""
+    if isinstance(value, float):
+        return round(value, 5) + 0.0
+    if isinstance(value, (list, tuple)):
+        return [rounded(v) for v in value]
+    if isinstance(value, dict):
+        return {k: rounded(v) for k, v in value.items()}
+    return value
+
+
 def look_document(look: Look) -> dict:
     """The look's parameters as JSON (ground_truth ``look``), rounded for compact files."""
-
-    def rounded(value):
-        if isinstance(value, float):
-            return round(value, 5) + 0.0
-        if isinstance(value, (list, tuple)):
-            return [rounded(v) for v in value]
-        if isinstance(value, dict):
-            return {k: rounded(v) for k, v in value.items()}
-        return value
-
     document = rounded(asdict(look))
     if look.materials is None:
         del document["materials"]  # the default look's documents stay those of synth-1/synth-2

@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from synth.looks import rounded
 from world.types import COLORS
 
 POVRAY_LOOK_STREAM = 3  # [seed, index] scene, [.., 1] questions, [.., 2, family] synth.looks, [.., 3] this look
@@ -234,16 +235,6 @@ def sample_povray_look(rng: np.random.Generator, target: tuple[float, float, flo
 
 def povray_look_document(look: PovLook) -> dict:
     """The look's parameters as JSON (ground_truth ``renderer.look``), rounded."""
-
-    def rounded(value):
-        if isinstance(value, float):
-            return round(value, 5) + 0.0
-        if isinstance(value, (list, tuple)):
-            return [rounded(v) for v in value]
-        if isinstance(value, dict):
-            return {k: rounded(v) for k, v in value.items()}
-        return value
-
     document = rounded(asdict(look))
     document["paints"] = {c: p for c, p in zip(COLORS, document["paints"])}
     return document

@@ -10,12 +10,12 @@ Heavy imports (MuJoCo, PyAV) happen inside the handlers.
 from __future__ import annotations
 
 import argparse
-import multiprocessing
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any, Callable, Sequence
 
 from tqdm import tqdm
+
+from physmind.executors import run_jobs as run_executor_jobs
 
 
 def register(subparsers) -> None:
@@ -186,18 +186,14 @@ def run_contact_sheet(args: argparse.Namespace) -> int:
 
 def run_jobs(function: Callable[[Any], Any], jobs: Sequence[Any], workers: int, desc: str, unit: str) -> list[Any]:
     """``function(job)`` for every job, in this process (workers == 1) or in ``workers`` spawned
-    processes (spawn: each loads MuJoCo afresh, no forked GL state), with a progress bar.
-    Results come in completion order."""
+    processes (physmind.executors: spawn, so each loads MuJoCo afresh with no forked GL state, and
+    each ends itself when this process dies), with a progress bar. Results come in completion order;
+    a failing job stops the run with its error."""
     results = []
     with tqdm(total=len(jobs), desc=desc, unit=unit) as bar:
-        if workers == 1:
-            for job in jobs:
-                results.append(function(job))
-                bar.update(1)
-        else:
-            context = multiprocessing.get_context("spawn")
-            with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
-                for future in as_completed([pool.submit(function, job) for job in jobs]):
-                    results.append(future.result())
-                    bar.update(1)
+        for _, result, error in run_executor_jobs(function, [(job,) for job in jobs], workers):
+            if error is not None:
+                raise error
+            results.append(result)
+            bar.update(1)
     return results

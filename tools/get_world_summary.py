@@ -47,6 +47,7 @@ def run(session: WorldSession, args: Mapping[str, Any]) -> dict[str, Any]:
             "initial_position": vec(body.initial.position),
             "initial_velocity": vec(body.initial.velocity),
             **({} if body.rolling_friction is None else {"rolling_friction": r(body.rolling_friction)}),
+            **({} if body.contact_friction is None else {"contact_friction": r(body.contact_friction)}),
             **({} if body.attribute_belief is None else {"attribute_belief": _belief(body.attribute_belief)}),
         }
         for body in world.bodies
@@ -74,7 +75,7 @@ TOOL = ToolSpec(
     order=9,
     description=(
         "Summarise the world: every object's id, shape, color, material, size and fitted parameters "
-        "(mass, friction, restitution, entry frame, initial state; for a world perceived from video also "
+        "(mass, friction, restitution, contact_friction between bodies when fitted, entry frame, initial state; for a world perceived from video also "
         "attribute_belief, the probability of each colour, material and shape value), the video's fps and observed frames, "
         "the ids of the registered rollouts, and the collisions seen in the video (observed_collisions, "
         "null for a world not fitted to a video). Call it first to ground object descriptions to ids."

@@ -383,3 +383,11 @@ def test_world_summary_reports_attribute_beliefs_only_where_the_world_has_them(w
     assert objects[0]["attribute_belief"] == {"color": {"green": 0.6, "cyan": 0.4}, "material": {"metal": 0.2, "rubber": 0.8},
                                               "shape": {"cube": 0.5, "cylinder": 0.3, "sphere": 0.2}, "support_frames": 40}
     assert all("attribute_belief" not in o for o in objects[1:])
+
+
+def test_world_summary_reports_contact_friction_only_where_the_world_has_it(world):
+    """The friction between bodies a fitted world carries is visible to the agent (call_tool validates the result schema)."""
+    fitted = dataclasses.replace(world, bodies=(dataclasses.replace(world.bodies[0], contact_friction=0.35), *world.bodies[1:]))
+    objects = call_tool("get_world_summary", WorldSession("w-contact", fitted, MemoryRolloutStore()), {})["objects"]
+    assert objects[0]["contact_friction"] == 0.35
+    assert all("contact_friction" not in o for o in objects[1:])

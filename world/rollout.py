@@ -50,7 +50,8 @@ from world.camera import footprint_visible, view_events
 from world.contacts import (CIRCLE, MIN_CA_STEP, SQUARE, Contact, Footprint, PlanarMotion, closing, collision_impulse, contact_normal_speed,
                             contact_patch_centre, footprint_distance, pair_friction, predict_contact)
 from world.edits import apply_edits
-from world.flows import FLIGHT, REST, SKID, Segment, evaluate_segments, inactive_segment, start_segment, start_sphere_segment
+from world.flows import (FLIGHT, REST, SKID, Segment, evaluate_segments, evaluate_yaw_rates, inactive_segment,
+                         start_segment, start_sphere_segment)
 from world.types import Body, Edit, Event, Rollout, World
 
 MAX_EVENTS = 20_000
@@ -143,7 +144,8 @@ class _Engine:
             seg = start_sphere_segment(t, position, velocity, spin, yaw, body.shape.rest_height,
                                        body.friction, body.rolling_friction, self.g)
         else:
-            seg = start_segment(t, position, velocity, yaw, yaw_rate, body.shape.rest_height, self.friction[k], self.g)
+            seg = start_segment(t, position, velocity, yaw, yaw_rate, body.shape.rest_height, self.friction[k], self.g,
+                                body.shape.footprint_mean_radius, body.shape.yaw_inertia_per_mass)
         self.segments[k] = seg
         self.logs[k].append(seg)
 
@@ -169,8 +171,10 @@ class _Engine:
         if seg.mode == SKID:  # the contact point stops slipping: the sphere rolls on (no event)
             self._set_segment(k, t, position, velocity, yaw, 0.0)
             return
-        # Coulomb stop: exactly at rest from now on.
+        # Coulomb stop: exactly at rest from now on (a body that only spun in place did not move: no event).
         self._set_segment(k, t, position, (0.0, 0.0, 0.0), yaw, 0.0)
+        if seg.velocity[0] == 0.0 and seg.velocity[1] == 0.0:
+            return
         self._record(t, Event("stop", (body.id,), t, frame_of(t, self.world.fps), tuple(position), 0.0))
 
     # ------------------------------------------------------------------ contacts
@@ -499,11 +503,13 @@ def simulate(
     positions = np.zeros((horizon_frames, n, 3))
     velocities = np.zeros((horizon_frames, n, 3))
     yaw = np.zeros((horizon_frames, n))
+    yaw_rates = np.zeros((horizon_frames, n))
     active = np.zeros((horizon_frames, n), dtype=bool)
     visible = np.zeros((horizon_frames, n), dtype=bool)
     for k, body in enumerate(edited.bodies):
         p, v, y, act = evaluate_segments(engine.logs[k], times)
         positions[:, k], velocities[:, k], yaw[:, k], active[:, k] = p, v, y, act
+        yaw_rates[:, k] = evaluate_yaw_rates(engine.logs[k], times)
         if edited.camera is None:
             visible[:, k] = act
         else:
@@ -531,4 +537,5 @@ def simulate(
         visible=visible,
         events=tuple(events),
         notes=tuple(engine.notes),
+        yaw_rates=yaw_rates,
     )

@@ -144,8 +144,11 @@ class _Engine:
             seg = start_sphere_segment(t, position, velocity, spin, yaw, body.shape.rest_height,
                                        body.friction, body.rolling_friction, self.g)
         else:
+            # Slide and spin coupled for cubes only: coupling cylinders too (their spin comes
+            # from friction alone) made identification on exact tracks converge worse (docs/engine.md).
+            spin_arm = body.shape.footprint_mean_radius if body.shape.kind == "cube" else 0.0
             seg = start_segment(t, position, velocity, yaw, yaw_rate, body.shape.rest_height, self.friction[k], self.g,
-                                body.shape.footprint_mean_radius, body.shape.yaw_inertia_per_mass)
+                                spin_arm, body.shape.yaw_inertia_per_mass)
         self.segments[k] = seg
         self.logs[k].append(seg)
 

@@ -78,12 +78,14 @@ def test_yaw_rate_decays_to_zero_at_the_common_stop_of_slide_and_spin():
     assert stops == [pytest.approx(t_stop, abs=1e-12)]
 
 
-def test_a_body_spinning_in_place_stops_at_the_floor_torque_without_a_stop_event():
+def test_a_cube_spinning_in_place_stops_at_the_floor_torque_without_a_stop_event():
     mu, yaw_rate = 0.4, 5.0
-    world = world_of(body(0, (0, 0), (0.0, 0.0), CYLINDER, yaw_rate=yaw_rate, friction=mu), fps=500.0)
+    world = world_of(body(0, (0, 0), (0.0, 0.0), CUBE, yaw_rate=yaw_rate, friction=mu), fps=500.0)
     rollout = simulate(world, horizon_frames=600)
-    # Torque mu m g (2r/3) on I = m r^2 / 2: constant angular deceleration 4 mu g / (3 r).
-    t_stop = yaw_rate / (4.0 * mu * G / (3.0 * CYLINDER.radius))
+    # Torque mu m g rho (rho = 0.765 h, the square's mean distance from its centre) on I = 2/3 m h^2.
+    h = CUBE.half_extent
+    rho = h * (math.sqrt(2.0) + math.log(1.0 + math.sqrt(2.0))) / 3.0
+    t_stop = yaw_rate / (mu * G * rho / (2.0 / 3.0 * h * h))
     assert rollout.yaw[-1, 0] == pytest.approx(0.5 * yaw_rate * t_stop, abs=1e-12)
     assert np.all(rollout.positions[:, 0, :2] == 0.0)
     assert not any(e.kind == "stop" for e in rollout.events)

@@ -52,7 +52,7 @@ def test_off_centre_impacts_spin_the_cubes_like_mujoco(name):
     for k, shape in enumerate(shapes):
         if shape != "cube" or abs(mujoco_rates[k]) < 0.5:
             continue
-        # The cube's spin: same sense, within 35 % of MuJoCo's (observed: within 25 %).
+        # The cube's spin: same sense, within 35 % of MuJoCo's (observed: within 15 %).
         assert math.copysign(1.0, our_rates[k]) == math.copysign(1.0, mujoco_rates[k])
         assert abs(our_rates[k] - mujoco_rates[k]) < 0.35 * abs(mujoco_rates[k])
     assert any(shape == "cube" and abs(mujoco_rates[k]) >= 0.5 for k, shape in enumerate(shapes))

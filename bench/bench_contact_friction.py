@@ -9,7 +9,8 @@ with the sticking limit (slip removal 1), and the share of the slip that
 MuJoCo's soft contact removes (``--slip-removal``, the value identification
 uses). Printed per case: the direction error (degrees) of the struck and the
 striking body's velocity 3 frames after the first contact, and the largest
-planar error (cm) of either body over the run.
+planar error (cm) of either body over the run; then the cubes' yaw rates
+against MuJoCo's (spin from off-centre impacts).
 
     MUJOCO_GL=egl python -m bench.bench_contact_friction [--seconds 2] [--slip-removal 0.45]
 """
@@ -56,6 +57,23 @@ def case_errors(shapes, frictions, speed, offset, seconds, models) -> dict[str, 
     return out
 
 
+def spin_rates(shapes, frictions, speed, offset, seconds, model) -> list[tuple[str, float, float]]:
+    """Per cube of the case: (role, MuJoCo's yaw rate, ours) in rad/s, 3 frames after MuJoCo's first contact.
+
+    Ours from the yaw by a central difference over one frame each side (the same for any engine version).
+    """
+    spec = pair_spec(shapes, speed, offset, frictions)
+    truth = run_pair(spec, seconds)
+    if not truth.collisions:
+        return []
+    frames = truth.positions.shape[0]
+    probe = truth.collisions[0].frame + 3
+    ours = simulate(engine_world(spec, frames, *model), horizon_frames=frames)
+    rates = (ours.yaw[probe + 1] - ours.yaw[probe - 1]) * spec.fps / 2.0
+    return [(("striker", "struck")[k], float(truth.angular_velocities[probe, k, 2]), float(rates[k]))
+            for k, shape in enumerate(shapes) if shape == "cube"]
+
+
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--seconds", type=float, default=2.0)
@@ -85,6 +103,19 @@ def main(argv: list[str] | None = None) -> int:
         v = np.array(values)
         print(f"  {m:<30} {np.median(v[:, 0]):>6.1f} {np.median(v[:, 1]):>6.1f} {np.median(v[:, 2]) * 100:>6.1f}   "
               f"worst {v[:, 0].max():.1f} deg, {v[:, 1].max():.1f} deg, {v[:, 2].max() * 100:.1f} cm")
+    last = list(models)[-1]
+    print(f"cubes' yaw rate 3 frames after the first contact (rad/s), model '{last}': MuJoCo / ours")
+    misses = []
+    for shapes, frictions, speed in CASES:
+        if "cube" not in shapes:
+            continue
+        for offset in OFFSETS:
+            rows = spin_rates(shapes, frictions, speed, offset, args.seconds, models[last])
+            misses += [abs(ours - truth) for _, truth, ours in rows]
+            cells = "  ".join(f"{role} {truth:+.2f} / {ours:+.2f}" for role, truth, ours in rows)
+            print(f"  {'-'.join(shapes):<18} offset {offset:.2f}  {cells}")
+    if misses:
+        print(f"  |ours - MuJoCo| median {np.median(misses):.2f} rad/s, max {max(misses):.2f} rad/s")
     return 0
 
 

@@ -10,11 +10,12 @@ from __future__ import annotations
 
 import math
 
+import mujoco
 import numpy as np
 
 from synth.mjcf import pair_restitution
 from synth.scene import GRAVITY, OBJECT_HALF_SIZE, ObjectSpec, SceneSpec, camera_look_at, deceleration
-from synth.simulate import SimResult, simulate
+from synth.simulate import SimResult, load_model, simulate
 from world.types import Body, BodyState, Shape, World
 
 DENSITY = 1100.0  # kg/m^3, rubber
@@ -26,17 +27,19 @@ def _volume(shape: str) -> float:
 
 
 def pair_spec(shapes: tuple[str, str], speed: float, offset: float, frictions: tuple[float, float],
-              restitution: float = 0.7, mass_ratio: float = 1.0, rolling_friction: float = 0.015) -> SceneSpec:
+              restitution: float = 0.7, mass_ratio: float = 1.0, rolling_friction: float = 0.015,
+              yaws: tuple[float, float] = (0.0, 0.0)) -> SceneSpec:
     """Object 0 at (-1, 0) launched along +x at ``speed`` m/s into object 1 resting at (0, offset) m.
 
     frictions: sliding (floor) coefficients; a sphere's is its skid friction.
-    mass_ratio: object 1's density over object 0's.
+    mass_ratio: object 1's density over object 0's. yaws: rad, of object 0 and 1
+    (a cube turned by pi/4 leads with a corner).
     """
     camera = camera_look_at(np.array([0.0, -6.0, 4.0]), np.array([0.0, 0.0, 0.0]), 36.0)
     objects = []
     for k, (shape, position, velocity) in enumerate(zip(shapes, ((-1.0, 0.0), (0.0, offset)), ((speed, 0.0), (0.0, 0.0)))):
         objects.append(ObjectSpec(
-            k, "red", "rubber", shape, (position[0], position[1], OBJECT_HALF_SIZE), (velocity[0], velocity[1], 0.0), 0.0,
+            k, "red", "rubber", shape, (position[0], position[1], OBJECT_HALF_SIZE), (velocity[0], velocity[1], 0.0), yaws[k],
             mass=DENSITY * (mass_ratio if k else 1.0) * _volume(shape), friction=frictions[k],
             rolling_friction=rolling_friction if shape == "sphere" else 0.0,
             torsional_friction=0.01 if shape == "sphere" else 0.0, restitution=restitution,
@@ -46,6 +49,41 @@ def pair_spec(shapes: tuple[str, str], speed: float, offset: float, frictions: t
 
 def run_pair(spec: SceneSpec, seconds: float) -> SimResult:
     return simulate(spec, horizon_frames=int(round(seconds * spec.fps)) + 1)
+
+
+def lone_spec(shape: str, velocity: tuple[float, float], friction: float) -> SceneSpec:
+    """One cube or cylinder at the origin (yaw 0) on the generator's floor, launched at ``velocity`` m/s."""
+    camera = camera_look_at(np.array([0.0, -6.0, 4.0]), np.array([0.0, 0.0, 0.0]), 36.0)
+    obj = ObjectSpec(0, "red", "rubber", shape, (0.0, 0.0, OBJECT_HALF_SIZE), (velocity[0], velocity[1], 0.0), 0.0,
+                     mass=DENSITY * _volume(shape), friction=friction, rolling_friction=0.0, torsional_friction=0.0,
+                     restitution=0.7, role="moving")
+    return SceneSpec(0, camera, (obj,))
+
+
+def run_spinning(spec: SceneSpec, yaw_rate: float, seconds: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lone object of ``spec`` launched with its velocity and ``yaw_rate`` rad/s about z, in MuJoCo
+    with the generator's model (the generator itself launches no spin).
+
+    Returns per frame (0 .. seconds * fps): planar positions (T, 2) m, yaw (T,) rad (unwrapped),
+    yaw rates (T,) rad/s.
+    """
+    model, _ = load_model(spec)
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    data.qvel[0:3] = spec.objects[0].velocity
+    data.qvel[3:6] = (0.0, 0.0, yaw_rate)  # body frame = world frame for an upright body at yaw 0
+    mujoco.mj_forward(model, data)
+    frames = int(round(seconds * spec.fps)) + 1
+    steps_per_frame = int(round(1.0 / (spec.fps * model.opt.timestep)))
+    positions, yaws, rates = np.zeros((frames, 2)), np.zeros(frames), np.zeros(frames)
+    for frame in range(frames):
+        positions[frame] = data.xpos[1][:2]
+        w, x, y, z = data.xquat[1]
+        yaws[frame] = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        rates[frame] = (data.xmat[1].reshape(3, 3) @ data.qvel[3:6])[2]
+        for _ in range(steps_per_frame):
+            mujoco.mj_step(model, data)
+    return positions, np.unwrap(yaws), rates
 
 
 def engine_world(spec: SceneSpec, observed_frames: int, contact_friction: bool = True,

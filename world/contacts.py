@@ -34,6 +34,10 @@ PUSH_ACCEL_TOL = 1e-9  # m/s^2: touching, no approach speed, but closing faster 
 MIN_CA_STEP = 1e-4  # s: smallest advancement step; a penetration shorter than this can be missed
 BISECT_TIME_TOL = 1e-12  # s
 MAX_CA_ITERATIONS = 200  # then the pair is re-checked from where it stopped (Contact.normal None)
+# m: a square's boundary within this depth of its deepest point along the normal
+# carries the contact (the patch of a face pressed flat). Our choice, not measured:
+# it makes the patch move continuously as a face tilts away from its partner's.
+PATCH_DEPTH = 1e-3
 
 
 @dataclass(frozen=True)
@@ -163,6 +167,58 @@ def footprint_distance(
         if sd < best[0]:
             best = (sd, (-gx, -gy), (cx - 0.5 * sd * gx, cy - 0.5 * sd * gy))
     return best
+
+
+def _support_interval(footprint: Footprint, cx: float, cy: float, yaw: float,
+                      direction: tuple[float, float], point: tuple[float, float]) -> tuple[float, float]:
+    """Tangential extent (lo, hi) of the part of a footprint's boundary that carries a contact.
+
+    direction: (2,) unit, pointing from the footprint towards its partner;
+    the part is the boundary within ``PATCH_DEPTH`` of the footprint's
+    furthest point along it. Measured along ``t = (-d_y, d_x)`` from ``point`` (m).
+    A circle touches at one point; a square along a clipped piece of the two
+    edges at its furthest corner (a whole edge when that edge faces the partner).
+    """
+    dx, dy = direction
+    tx, ty = -dy, dx
+    if footprint.kind == CIRCLE:
+        along = (cx - point[0]) * tx + (cy - point[1]) * ty
+        return along, along
+    corners = _square_corners(cx, cy, yaw, footprint.size)
+    heights = [(x - point[0]) * dx + (y - point[1]) * dy for x, y in corners]
+    top = max(range(4), key=lambda k: heights[k])
+    ax, ay = corners[top]
+    ends = [(ax - point[0]) * tx + (ay - point[1]) * ty]
+    for neighbour in ((top + 1) % 4, (top + 3) % 4):
+        drop = heights[top] - heights[neighbour]
+        share = 1.0 if drop <= PATCH_DEPTH else PATCH_DEPTH / drop
+        bx, by = corners[neighbour]
+        ends.append((ax + share * (bx - ax) - point[0]) * tx + (ay + share * (by - ay) - point[1]) * ty)
+    return min(ends), max(ends)
+
+
+def contact_patch_centre(
+    fi: Footprint, xi: float, yi: float, yawi: float,
+    fj: Footprint, xj: float, yj: float, yawj: float,
+    normal: tuple[float, float], point: tuple[float, float],
+) -> tuple[float, float]:
+    """Centre (2,) m of the contact patch of two touching footprints: where the normal impulse acts.
+
+    normal: (2,) unit from j to i; point: a contact point (``footprint_distance``).
+    The patch is the overlap, along the tangent, of the parts of both
+    boundaries that carry the contact (``_support_interval``): a point for a
+    corner or a circle, a segment for two faces pressed flat (its middle is
+    the resultant of a uniform pressure). Falls back to ``point`` when the
+    parts do not overlap.
+    """
+    lo_i, hi_i = _support_interval(fi, xi, yi, yawi, (-normal[0], -normal[1]), point)
+    lo_j, hi_j = _support_interval(fj, xj, yj, yawj, normal, point)
+    # i's tangent is -t, j's is t: flip i's interval onto j's axis.
+    lo, hi = max(-hi_i, lo_j), min(-lo_i, hi_j)
+    if lo > hi:
+        return point
+    mid = 0.5 * (lo + hi)
+    return point[0] - normal[1] * mid, point[1] + normal[0] * mid
 
 
 # --------------------------------------------------------------------------- contact times
@@ -404,16 +460,14 @@ def _paths_come_close(mi: PlanarMotion, mj: PlanarMotion, tau_max: float, reach:
 
 
 def _approaching(mi: PlanarMotion, mj: PlanarMotion, tau: float, normal, point) -> bool:
-    """Closing along the normal at the contact point (translation plus spin), or, at
-    zero normal speed, by relative acceleration (pushing)."""
-    xi, yi, _, vxi, vyi = mi.at(tau)
-    xj, yj, _, vxj, vyj = mj.at(tau)
+    """Closing along the normal at the contact patch's centre (translation plus spin; where
+    the rollout applies the impulse), or, at zero normal speed, by relative acceleration (pushing)."""
+    xi, yi, yawi, vxi, vyi = mi.at(tau)
+    xj, yj, yawj, vxj, vyj = mj.at(tau)
     wi = mi.yaw_rate + mi.yaw_accel * tau
     wj = mj.yaw_rate + mj.yaw_accel * tau
-    # Velocity of the contact point on each body: v + w e_z x (c - p).
-    vxi, vyi = vxi - wi * (point[1] - yi), vyi + wi * (point[0] - xi)
-    vxj, vyj = vxj - wj * (point[1] - yj), vyj + wj * (point[0] - xj)
-    normal_speed = (vxi - vxj) * normal[0] + (vyi - vyj) * normal[1]
+    centre = contact_patch_centre(mi.footprint, xi, yi, yawi, mj.footprint, xj, yj, yawj, normal, point)
+    normal_speed = contact_normal_speed(normal, centre, ((xi, yi), (xj, yj)), ((vxi, vyi), (vxj, vyj)), (wi, wj))
     if normal_speed < -APPROACH_TOL:
         return True
     normal_accel = ((mi.acceleration[0] - mj.acceleration[0]) * normal[0]
@@ -564,3 +618,115 @@ def tangential_impulse(
     if not sticking:
         horizontal, vertical = horizontal * limit / size, vertical * limit / size
     return TangentialImpulse(horizontal, vertical, li * horizontal / yaw_inertias[0], -lj * horizontal / yaw_inertias[1], sticking)
+
+
+@dataclass(frozen=True)
+class CollisionImpulse:
+    """The response to one impact between bodies i and j (planar rigid bodies).
+
+    normal_impulse: N s on i along n (j receives the opposite), at the contact point.
+    velocity_change_i, velocity_change_j: (2,) m/s of the centres.
+    yaw_rate_change_i, yaw_rate_change_j: rad/s, from the moments of the normal
+    and the friction impulse about each centre.
+    friction: the tangential part (None without friction between the bodies).
+    """
+
+    normal_impulse: float
+    velocity_change_i: tuple[float, float]
+    velocity_change_j: tuple[float, float]
+    yaw_rate_change_i: float
+    yaw_rate_change_j: float
+    friction: TangentialImpulse | None
+
+
+def contact_normal_speed(
+    normal: tuple[float, float], point: tuple[float, float],
+    centres: tuple[tuple[float, float], tuple[float, float]],
+    velocities: tuple[tuple[float, float], tuple[float, float]],
+    yaw_rates: tuple[float, float],
+) -> float:
+    """Relative normal speed (m/s, < 0 approaching) of the two bodies' material points at ``point``.
+
+    normal: (2,) unit from j to i; centres (m), velocities (m/s): (2,) each, of i then j;
+    yaw_rates: rad/s. A point's velocity is ``v + w e_z x r`` (r from the centre), and
+    ``(e_z x r) . n = r x n``.
+    """
+    nx, ny = normal
+    speed = 0.0
+    for sign, (cx, cy), (vx, vy), w in zip((1.0, -1.0), centres, velocities, yaw_rates):
+        arm = (point[0] - cx) * ny - (point[1] - cy) * nx
+        speed += sign * (vx * nx + vy * ny + w * arm)
+    return speed
+
+
+def collision_impulse(
+    normal: tuple[float, float],
+    point: tuple[float, float],
+    centres: tuple[tuple[float, float], tuple[float, float]],
+    velocities: tuple[tuple[float, float], tuple[float, float]],
+    yaw_rates: tuple[float, float],
+    masses: tuple[float, float],
+    yaw_inertias: tuple[float, float],
+    restitution: float,
+    friction: float = 0.0,
+    slip_removal: float = 1.0,
+    vertical_slip: float = 0.0,
+    vertical_compliance: float = 0.0,
+) -> CollisionImpulse:
+    """Impulse of a planar rigid-body impact at the contact point, in closed form (the one owner).
+
+    normal: (2,) unit from j to i; point: (2,) m, where the impulse acts (the
+    contact patch's centre); centres, velocities: (2,) m and m/s of i then j;
+    yaw_rates: rad/s; masses: kg; yaw_inertias: kg m^2 about z; restitution e;
+    friction: the pair's Coulomb coefficient (0: frictionless); slip_removal,
+    vertical_slip, vertical_compliance: as in ``tangential_impulse``.
+
+    1. Normal: ``j = -(1 + e) u_n / (1/m_i + 1/m_j + (r_i x n)^2/I_i + (r_j x n)^2/I_j)``
+       with ``u_n`` the contact points' relative normal speed
+       (``contact_normal_speed``), applied at the point: it changes the yaw
+       rates by ``(r x n) j / I`` (zero for a circle: its r is along n).
+    2. Friction: ``tangential_impulse`` on the velocities after step 1
+       (Coulomb-bounded by ``friction * j``).
+    3. Friction at an off-centre point can turn the contact points towards each
+       other again; a last normal impulse then only stops that approach (u_n -> 0).
+    Each step removes kinetic energy or keeps it (e <= 1); every impulse acts
+    at the same point on both bodies, equal and opposite, so linear momentum
+    and angular momentum about any point are conserved.
+    """
+    nx, ny = normal
+    (mi, mj), (inertia_i, inertia_j) = masses, yaw_inertias
+    arm_i = (point[0] - centres[0][0]) * ny - (point[1] - centres[0][1]) * nx  # r_i x n
+    arm_j = (point[0] - centres[1][0]) * ny - (point[1] - centres[1][1]) * nx
+    lever_i = (point[0] - centres[0][0]) * nx + (point[1] - centres[0][1]) * ny  # r_i x t = r_i . n
+    lever_j = (point[0] - centres[1][0]) * nx + (point[1] - centres[1][1]) * ny
+    k_normal = 1.0 / mi + 1.0 / mj + arm_i * arm_i / inertia_i + arm_j * arm_j / inertia_j
+    (vix, viy), (vjx, vjy) = velocities
+    wi, wj = yaw_rates
+
+    def push(size, dx, dy, moment_i, moment_j):
+        """Apply ``size`` N s along (dx, dy) on i (opposite on j) with the given moment arms."""
+        nonlocal vix, viy, vjx, vjy, wi, wj
+        vix, viy = vix + size * dx / mi, viy + size * dy / mi
+        vjx, vjy = vjx - size * dx / mj, vjy - size * dy / mj
+        wi, wj = wi + moment_i * size / inertia_i, wj - moment_j * size / inertia_j
+
+    def normal_speed():
+        return (vix - vjx) * nx + (viy - vjy) * ny + wi * arm_i - wj * arm_j
+
+    approach = normal_speed()
+    j_normal = -(1.0 + restitution) * approach / k_normal if approach < 0.0 else 0.0
+    push(j_normal, nx, ny, arm_i, arm_j)
+    tangential = None
+    if friction > 0.0:
+        tangential = tangential_impulse(
+            normal, (vix - vjx, viy - vjy), (wi, wj), (lever_i, lever_j), masses, yaw_inertias,
+            j_normal, friction, slip_removal, vertical_slip, vertical_compliance)
+        push(tangential.impulse, -ny, nx, lever_i, lever_j)
+        again = normal_speed()
+        if again < 0.0:
+            extra = -again / k_normal
+            push(extra, nx, ny, arm_i, arm_j)
+            j_normal += extra
+    (v0ix, v0iy), (v0jx, v0jy) = velocities
+    return CollisionImpulse(j_normal, (vix - v0ix, viy - v0iy), (vjx - v0jx, vjy - v0jy),
+                            wi - yaw_rates[0], wj - yaw_rates[1], tangential)

@@ -25,12 +25,22 @@ Modes (see ``Segment.mode``):
   ``mu_roll g`` (``Body.rolling_friction``; a rolling sphere's contact point
   does not slip, its spin follows its velocity).
 
-Yaw (rotation about +z): while a body slides its yaw rate decays linearly and
-reaches zero exactly at the translational stopping time (constant angular
-deceleration, like the linear one); at rest the yaw rate is zero; in flight
-the yaw rate is constant. Collisions are not this module's business: the
-rollout (world/rollout.py) sets both bodies' yaw rate at a collision (zero
-without friction between them, else the friction impulse's spin).
+Yaw (rotation about +z), slide and spin coupled (``spin_slide_stop_time``):
+a flat body that slides at speed ``v`` and spins at ``w`` on the plane
+(Coulomb friction, uniform pressure) loses speed and spin together and
+stops both at the same time (Farkas, Bartels, Unger & Wolf, "Frictional
+coupling between sliding and spinning motion", Phys. Rev. Lett. 90, 248302,
+2003); while it spins, the friction force against the slide is smaller than
+``mu m g``. Closed-form approximation: speed and spin both decay linearly
+to one common stop ``T``, chosen so that the energy the friction removes at
+the start matches its power ``mu m g <|slip|>``, with the mean slip speed of
+the face approximated by ``sqrt(v^2 + (w rho)^2)`` (``rho``: the face's mean
+distance from the centre, ``Shape.footprint_mean_radius``), exact for a pure
+slide (``T = v / (mu g)``) and a pure spin (``T = (I/m) w / (mu g rho)``).
+A body spinning in place is a ``SLIDE`` segment of zero speed that ends at
+its spin's stop. At rest the yaw rate is zero; in flight it is constant.
+Collisions are not this module's business: the rollout (world/rollout.py)
+sets both bodies' yaw rate at a collision (``contacts.collision_impulse``).
 """
 
 from __future__ import annotations
@@ -45,6 +55,8 @@ SLIDE, REST, FLIGHT, SKID = "slide", "rest", "flight", "skid"
 # Speeds below this are treated as zero (m/s): avoids stop events micro-seconds
 # after a collision that left a body with a rounding-level velocity.
 REST_SPEED = 1e-9
+# Yaw rates below this (rad/s) are treated as zero when a body spins in place.
+REST_SPIN = 1e-9
 # A body whose centre is this far (m) above its rest height is in flight.
 FLIGHT_HEIGHT_TOL = 1e-9
 # A sphere whose contact point slips slower than this (m/s) rolls.
@@ -113,6 +125,22 @@ def stopping_distance(speed: float, friction: float, gravity: float) -> float:
     return speed * speed / (2.0 * friction * gravity)
 
 
+def spin_slide_stop_time(speed: float, yaw_rate: float, friction: float, gravity: float,
+                         spin_arm: float, yaw_inertia_per_mass: float) -> float:
+    """Common stop time (s) of a body sliding at ``speed`` (m/s) and spinning at ``yaw_rate`` (rad/s).
+
+    spin_arm: m, the face's mean distance from the centre (``Shape.footprint_mean_radius``);
+    yaw_inertia_per_mass: m^2. ``T = (v^2 + (I/m) w^2) / (mu g sqrt(v^2 + (w rho)^2))``: the
+    kinetic energy over the friction's power at the start, times 2 (linear decay of both);
+    ``v / (mu g)`` without spin (module doc).
+    """
+    spin_speed = yaw_rate * spin_arm
+    slip = math.hypot(speed, spin_speed)
+    if slip == 0.0:
+        return 0.0
+    return (speed * speed + yaw_inertia_per_mass * yaw_rate * yaw_rate) / (friction * gravity * slip)
+
+
 def start_segment(
     t0: float,
     position: tuple[float, float, float],
@@ -122,11 +150,17 @@ def start_segment(
     rest_height: float,
     friction: float,
     gravity: float,
+    spin_arm: float = 0.0,
+    yaw_inertia_per_mass: float = 0.0,
 ) -> Segment:
     """The closed-form segment a body follows from state (position, velocity, yaw) at ``t0``.
 
     Chooses flight when the body is above its rest height or moves upwards,
-    otherwise sliding (or rest when its horizontal speed is zero).
+    otherwise sliding (or rest when its horizontal speed is zero). spin_arm (m)
+    and yaw_inertia_per_mass (m^2): the body's ``Shape.footprint_mean_radius``
+    and ``Shape.yaw_inertia_per_mass``; with a spin_arm, slide and spin are
+    coupled (``spin_slide_stop_time``) and a body can spin in place; without,
+    the spin decays linearly to the translational stop.
     """
     px, py, pz = position
     vx, vy, vz = velocity
@@ -138,13 +172,26 @@ def start_segment(
         return Segment(t0, (px, py, pz), (vx, vy, vz), (0.0, 0.0, -gravity),
                        yaw, yaw_rate, 0.0, FLIGHT, t0 + t_land)
     speed = math.hypot(vx, vy)
+    coupled = spin_arm > 0.0 and abs(yaw_rate) > REST_SPIN and friction > 0.0
     if speed <= REST_SPEED:
+        if not coupled:
+            return Segment(t0, (px, py, rest_height), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
+                           yaw, 0.0, 0.0, REST, math.inf)
+        # Spinning in place: the spin decays at the floor's friction torque to its stop.
+        t_stop = spin_slide_stop_time(0.0, yaw_rate, friction, gravity, spin_arm, yaw_inertia_per_mass)
+        if not t_stop > 0.0:  # no inertia to carry a spin
+            return Segment(t0, (px, py, rest_height), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
+                           yaw, 0.0, 0.0, REST, math.inf)
         return Segment(t0, (px, py, rest_height), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
-                       yaw, 0.0, 0.0, REST, math.inf)
-    decel = friction * gravity
-    t_stop = speed / decel
+                       yaw, yaw_rate, -yaw_rate / t_stop, SLIDE, t0 + t_stop)
+    if coupled:
+        t_stop = spin_slide_stop_time(speed, yaw_rate, friction, gravity, spin_arm, yaw_inertia_per_mass)
+        decel = speed / t_stop
+    else:
+        decel = friction * gravity
+        t_stop = speed / decel
     ax, ay = -decel * vx / speed, -decel * vy / speed
-    # Yaw rate decays linearly to zero exactly at the translational stop.
+    # Yaw rate decays linearly to zero exactly at the stop (common to slide and spin).
     yaw_accel = -yaw_rate / t_stop
     return Segment(t0, (px, py, rest_height), (vx, vy, 0.0), (ax, ay, 0.0),
                    yaw, yaw_rate, yaw_accel, SLIDE, t0 + t_stop)
@@ -187,6 +234,18 @@ def inactive_segment(t0: float, position, yaw: float) -> Segment:
     """A placeholder piece for times when the body is not in the world."""
     return Segment(t0, tuple(float(v) for v in position), (0.0, 0.0, 0.0), (0.0, 0.0, 0.0),
                    float(yaw), 0.0, 0.0, REST, math.inf, active=False)
+
+
+def evaluate_yaw_rates(segments: list[Segment], times: np.ndarray) -> np.ndarray:
+    """(T,) rad/s: a body's yaw rate at ``times`` (s) from its pieces sorted by ``t0``
+    (0 before the first piece)."""
+    starts = np.array([s.t0 for s in segments])
+    index = np.searchsorted(starts, times, side="right") - 1
+    before = index < 0
+    index = np.clip(index, 0, len(segments) - 1)
+    rates = np.array([(s.yaw_rate, s.yaw_accel) for s in segments])[index]
+    tau = np.where(before, 0.0, times - starts[index])
+    return np.where(before, 0.0, rates[:, 0] + rates[:, 1] * tau)
 
 
 def evaluate_segments(segments: list[Segment], times: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -47,10 +47,11 @@ import numpy as np
 
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of
 from world.camera import footprint_visible, view_events
-from world.contacts import (CIRCLE, SQUARE, Footprint, PlanarMotion, closing, footprint_distance, pair_friction,
-                            predict_contact, tangential_impulse)
+from world.contacts import (CIRCLE, MIN_CA_STEP, SQUARE, Contact, Footprint, PlanarMotion, closing, collision_impulse, contact_normal_speed,
+                            contact_patch_centre, footprint_distance, pair_friction, predict_contact)
 from world.edits import apply_edits
-from world.flows import FLIGHT, REST, SKID, Segment, evaluate_segments, inactive_segment, start_segment, start_sphere_segment
+from world.flows import (FLIGHT, REST, SKID, Segment, evaluate_segments, evaluate_yaw_rates, inactive_segment,
+                         start_segment, start_sphere_segment)
 from world.types import Body, Edit, Event, Rollout, World
 
 MAX_EVENTS = 20_000
@@ -143,7 +144,11 @@ class _Engine:
             seg = start_sphere_segment(t, position, velocity, spin, yaw, body.shape.rest_height,
                                        body.friction, body.rolling_friction, self.g)
         else:
-            seg = start_segment(t, position, velocity, yaw, yaw_rate, body.shape.rest_height, self.friction[k], self.g)
+            # Slide and spin coupled for cubes only: coupling cylinders too (their spin comes
+            # from friction alone) made identification on exact tracks converge worse (docs/engine.md).
+            spin_arm = body.shape.footprint_mean_radius if body.shape.kind == "cube" else 0.0
+            seg = start_segment(t, position, velocity, yaw, yaw_rate, body.shape.rest_height, self.friction[k], self.g,
+                                spin_arm, body.shape.yaw_inertia_per_mass)
         self.segments[k] = seg
         self.logs[k].append(seg)
 
@@ -169,8 +174,10 @@ class _Engine:
         if seg.mode == SKID:  # the contact point stops slipping: the sphere rolls on (no event)
             self._set_segment(k, t, position, velocity, yaw, 0.0)
             return
-        # Coulomb stop: exactly at rest from now on.
+        # Coulomb stop: exactly at rest from now on (a body that only spun in place did not move: no event).
         self._set_segment(k, t, position, (0.0, 0.0, 0.0), yaw, 0.0)
+        if seg.velocity[0] == 0.0 and seg.velocity[1] == 0.0:
+            return
         self._record(t, Event("stop", (body.id,), t, frame_of(t, self.world.fps), tuple(position), 0.0))
 
     # ------------------------------------------------------------------ contacts
@@ -224,24 +231,25 @@ class _Engine:
         # An impulse changes a sphere's velocity, not its spin (it skids afterwards).
         spin_a, spin_b = self.segments[a].spin_velocity_at(t), self.segments[b].spin_velocity_at(t)
         nx, ny = contact.normal  # from b to a
-        vn = (va[0] - vb[0]) * nx + (va[1] - vb[1]) * ny
+        own_a, own_b = self._yaw_rate_of(a, wa), self._yaw_rate_of(b, wb)
+        # The impulse acts at the contact patch's centre: off the centre line of a cube, it spins it.
+        point = contact_patch_centre(self.footprints[a], pa[0], pa[1], yaw_a,
+                                     self.footprints[b], pb[0], pb[1], yaw_b, (nx, ny), contact.point)
+        centres = ((pa[0], pa[1]), (pb[0], pb[1]))
+        vn = contact_normal_speed((nx, ny), point, centres, ((va[0], va[1]), (vb[0], vb[1])), (own_a, own_b))
         ids = tuple(sorted((body_a.id, body_b.id)))
         height = 0.5 * (pa[2] + pb[2])
         sa, sb = self.segments[a], self.segments[b]
         an = (sa.acceleration[0] - sb.acceleration[0]) * nx + (sa.acceleration[1] - sb.acceleration[1]) * ny
         if not closing(vn, an):
-            if wa == 0.0 and wb == 0.0:
-                # Nothing to resolve (rounding): keep both flows, and do not predict this
-                # pair again until one of them changes (no zero-time loop).
+            # Nothing to resolve (rounding, or a corner sweeping past while the contact points
+            # separate): keep both flows. Without spin, do not predict this pair again until one
+            # of them changes (no zero-time loop); a spinning pair is searched again a step later.
+            if own_a == 0.0 and own_b == 0.0:
                 self.pred.pop((a, b), None)
-                return []
-            # A spinning square swept into the other while the centres do not close in:
-            # the central impulse cannot act, so the impact only stops the spin.
-            self._set_segment(a, t, pa, va, yaw_a, 0.0, spin_a)
-            self._set_segment(b, t, pb, vb, yaw_b, 0.0, spin_b)
-            self._record(t, Event("collision", ids, t, frame_of(t, self.world.fps),
-                                  (contact.point[0], contact.point[1], height), 0.0))
-            return [a, b]
+            else:
+                self.pred[(a, b)] = (t + MIN_CA_STEP, Contact(MIN_CA_STEP, None, contact.point))
+            return []
         ma, mb = body_a.mass, body_b.mass
         key = (a, b)
         recent = [tc for tc in self.last_collision.get(key, []) if t - tc < ZENO_INTERVAL]
@@ -252,40 +260,28 @@ class _Engine:
             impulse = self._settle(members, t, a)
         else:
             members = [a, b]
-            e = self._restitution(a, b)
-            j = -(1.0 + e) * vn / (1.0 / ma + 1.0 / mb)
-            impulse = j
-            new_va = (va[0] + j / ma * nx, va[1] + j / ma * ny, va[2])
-            new_vb = (vb[0] - j / mb * nx, vb[1] - j / mb * ny, vb[2])
-            # Without friction between the bodies a collision stops the spin (no angular
-            # impulse; see module doc); with it, the friction impulse sets the spin.
-            yaw_rate_a = yaw_rate_b = 0.0
             mu = pair_friction(body_a.contact_friction, body_b.contact_friction)
-            if mu > 0.0:
-                point = contact.point
-                lever_a = (point[0] - pa[0]) * nx + (point[1] - pa[1]) * ny
-                lever_b = (point[0] - pb[0]) * nx + (point[1] - pb[1]) * ny
-                own_a, own_b = self._yaw_rate_of(a, wa), self._yaw_rate_of(b, wb)
-                # A rolling sphere's equator moves vertically at spin . n (a) or -spin . n (b):
-                # vertical friction at the contact changes its rolling spin (r^2 / I per unit mass).
-                roll_a = self._spin_compliance(a)
-                roll_b = self._spin_compliance(b)
-                vertical_slip = ((spin_a[0] * nx + spin_a[1] * ny) if roll_a else 0.0) + \
-                    ((spin_b[0] * nx + spin_b[1] * ny) if roll_b else 0.0)
-                friction = tangential_impulse(
-                    (nx, ny), (va[0] - vb[0], va[1] - vb[1]), (own_a, own_b), (lever_a, lever_b), (ma, mb),
-                    (ma * body_a.shape.yaw_inertia_per_mass, mb * body_b.shape.yaw_inertia_per_mass), j, mu,
-                    self.world.contact_slip_removal, vertical_slip, roll_a / ma + roll_b / mb)
-                jt, tx, ty = friction.impulse, -ny, nx
-                new_va = (new_va[0] + jt / ma * tx, new_va[1] + jt / ma * ty, new_va[2])
-                new_vb = (new_vb[0] - jt / mb * tx, new_vb[1] - jt / mb * ty, new_vb[2])
-                yaw_rate_a = self._yaw_rate_of(a, own_a + friction.yaw_rate_change_i)
-                yaw_rate_b = self._yaw_rate_of(b, own_b + friction.yaw_rate_change_j)
-                jz = friction.vertical
-                if roll_a:
-                    spin_a = (spin_a[0] + roll_a * jz / ma * nx, spin_a[1] + roll_a * jz / ma * ny)
-                if roll_b:
-                    spin_b = (spin_b[0] + roll_b * jz / mb * nx, spin_b[1] + roll_b * jz / mb * ny)
+            # A rolling sphere's equator moves vertically at spin . n (a) or -spin . n (b):
+            # vertical friction at the contact changes its rolling spin (r^2 / I per unit mass).
+            roll_a, roll_b = self._spin_compliance(a), self._spin_compliance(b)
+            vertical_slip = ((spin_a[0] * nx + spin_a[1] * ny) if roll_a else 0.0) + \
+                ((spin_b[0] * nx + spin_b[1] * ny) if roll_b else 0.0)
+            response = collision_impulse(
+                (nx, ny), point, centres, ((va[0], va[1]), (vb[0], vb[1])), (own_a, own_b), (ma, mb),
+                (ma * body_a.shape.yaw_inertia_per_mass, mb * body_b.shape.yaw_inertia_per_mass),
+                self._restitution(a, b), mu, self.world.contact_slip_removal, vertical_slip,
+                roll_a / ma + roll_b / mb)
+            impulse = response.normal_impulse
+            dva, dvb = response.velocity_change_i, response.velocity_change_j
+            new_va = (va[0] + dva[0], va[1] + dva[1], va[2])
+            new_vb = (vb[0] + dvb[0], vb[1] + dvb[1], vb[2])
+            yaw_rate_a = self._yaw_rate_of(a, own_a + response.yaw_rate_change_i)
+            yaw_rate_b = self._yaw_rate_of(b, own_b + response.yaw_rate_change_j)
+            jz = response.friction.vertical if response.friction is not None else 0.0
+            if roll_a:
+                spin_a = (spin_a[0] + roll_a * jz / ma * nx, spin_a[1] + roll_a * jz / ma * ny)
+            if roll_b:
+                spin_b = (spin_b[0] + roll_b * jz / mb * nx, spin_b[1] + roll_b * jz / mb * ny)
             self.friction[a], self.friction[b] = body_a.friction, body_b.friction
             self._set_segment(a, t, pa, new_va, yaw_a, yaw_rate_a, spin_a)
             self._set_segment(b, t, pb, new_vb, yaw_b, yaw_rate_b, spin_b)
@@ -510,11 +506,13 @@ def simulate(
     positions = np.zeros((horizon_frames, n, 3))
     velocities = np.zeros((horizon_frames, n, 3))
     yaw = np.zeros((horizon_frames, n))
+    yaw_rates = np.zeros((horizon_frames, n))
     active = np.zeros((horizon_frames, n), dtype=bool)
     visible = np.zeros((horizon_frames, n), dtype=bool)
     for k, body in enumerate(edited.bodies):
         p, v, y, act = evaluate_segments(engine.logs[k], times)
         positions[:, k], velocities[:, k], yaw[:, k], active[:, k] = p, v, y, act
+        yaw_rates[:, k] = evaluate_yaw_rates(engine.logs[k], times)
         if edited.camera is None:
             visible[:, k] = act
         else:
@@ -542,4 +540,5 @@ def simulate(
         visible=visible,
         events=tuple(events),
         notes=tuple(engine.notes),
+        yaw_rates=yaw_rates,
     )

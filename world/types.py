@@ -110,6 +110,20 @@ class Shape:
             return 0.5 * self.radius**2
         return 2.0 / 3.0 * self.half_extent**2
 
+    @property
+    def footprint_mean_radius(self) -> float:
+        """Mean distance (m) of the points of the face it slides on from the centre
+        (the arm of the floor's friction torque on a body spinning in place, uniform pressure).
+
+        Cube: square of half side h, ``h (sqrt 2 + ln(1 + sqrt 2)) / 3``; cylinder: disc, ``2 r / 3``;
+        sphere: 0 (it touches the plane at a point).
+        """
+        if self.kind == "sphere":
+            return 0.0
+        if self.kind == "cylinder":
+            return 2.0 / 3.0 * self.radius
+        return self.half_extent * (math.sqrt(2.0) + math.log1p(math.sqrt(2.0))) / 3.0
+
 
 @dataclass(frozen=True)
 class BodyState:
@@ -428,6 +442,8 @@ class Rollout:
     when the world has no camera).
     events: in time order. horizon_frames: T.
     notes: engine remarks (event cap reached, contacts skipped), usually empty.
+    yaw_rates: (T, N) rad/s from the engine's flows; None where not recorded
+    (rollouts read from documents, other producers).
     """
 
     id: str
@@ -445,6 +461,7 @@ class Rollout:
     events: tuple[Event, ...]
     # Engine remarks worth surfacing (e.g. the event cap was reached); empty normally.
     notes: tuple[str, ...] = ()
+    yaw_rates: np.ndarray | None = None
 
     @property
     def horizon_frames(self) -> int:

@@ -62,14 +62,33 @@ def test_sampling_rate_does_not_change_events(fps_a, fps_b):
     assert any(kind == "collision" for kind, _, _ in runs[0])
 
 
-def test_yaw_rate_decays_to_zero_at_the_stop():
+def test_yaw_rate_decays_to_zero_at_the_common_stop_of_slide_and_spin():
     speed, mu, yaw_rate = 2.0, 0.4, 3.0
     world = world_of(body(0, (0, 0), (speed, 0.0), CUBE, yaw=0.1, yaw_rate=yaw_rate, friction=mu), fps=500.0)
     rollout = simulate(world, horizon_frames=600)
-    t_stop = speed / (mu * G)
+    # T = (v^2 + (I/m) w^2) / (mu g sqrt(v^2 + (w rho)^2)), written out here from the law.
+    k, rho = CUBE.yaw_inertia_per_mass, CUBE.footprint_mean_radius
+    t_stop = (speed**2 + k * yaw_rate**2) / (mu * G * math.hypot(speed, yaw_rate * rho))
+    assert t_stop > speed / (mu * G)  # the spin lengthens the slide
     expected_final = 0.1 + 0.5 * yaw_rate * t_stop  # linear decay of the rate: area of a triangle
     assert rollout.yaw[-1, 0] == pytest.approx(expected_final, abs=1e-12)
+    assert rollout.positions[-1, 0, 0] == pytest.approx(0.5 * speed * t_stop, abs=1e-12)
     assert np.all(np.diff(rollout.yaw[:, 0]) >= 0.0)
+    stops = [e.time for e in rollout.events if e.kind == "stop"]
+    assert stops == [pytest.approx(t_stop, abs=1e-12)]
+
+
+def test_a_cube_spinning_in_place_stops_at_the_floor_torque_without_a_stop_event():
+    mu, yaw_rate = 0.4, 5.0
+    world = world_of(body(0, (0, 0), (0.0, 0.0), CUBE, yaw_rate=yaw_rate, friction=mu), fps=500.0)
+    rollout = simulate(world, horizon_frames=600)
+    # Torque mu m g rho (rho = 0.765 h, the square's mean distance from its centre) on I = 2/3 m h^2.
+    h = CUBE.half_extent
+    rho = h * (math.sqrt(2.0) + math.log(1.0 + math.sqrt(2.0))) / 3.0
+    t_stop = yaw_rate / (mu * G * rho / (2.0 / 3.0 * h * h))
+    assert rollout.yaw[-1, 0] == pytest.approx(0.5 * yaw_rate * t_stop, abs=1e-12)
+    assert np.all(rollout.positions[:, 0, :2] == 0.0)
+    assert not any(e.kind == "stop" for e in rollout.events)
 
 
 @pytest.mark.parametrize("height, vz", [(0.5, 0.0), (0.2, 1.5)])

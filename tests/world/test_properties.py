@@ -15,7 +15,7 @@ from world.types import Body, BodyState, Shape, World
 
 # Interpenetration bound (m) for every sampled frame. Contacts are exact roots
 # (circles) or bisected to 1e-12 s (squares), pushing contacts are settled and
-# collisions stop spin, so only rounding remains.
+# impacts act at the contact point (a spinning corner is pushed back), so only rounding remains.
 PENETRATION_TOL = 1e-6
 FPS = 200.0
 HORIZON = 600  # 3 s
@@ -47,8 +47,11 @@ def scenes(draw, spin: bool):
 
 
 def kinetic_energy(world: World, rollout) -> np.ndarray:
+    """(T,) J: translational plus rotational about z (off-centre impacts trade one for the other)."""
     masses = np.array([b.mass for b in world.bodies])
-    return 0.5 * np.einsum("n,tni,tni->t", masses, rollout.velocities, rollout.velocities)
+    inertias = masses * np.array([b.shape.yaw_inertia_per_mass for b in world.bodies])
+    return (0.5 * np.einsum("n,tni,tni->t", masses, rollout.velocities, rollout.velocities)
+            + 0.5 * np.einsum("n,tn,tn->t", inertias, rollout.yaw_rates, rollout.yaw_rates))
 
 
 PROPERTY_SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])

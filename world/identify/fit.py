@@ -707,6 +707,30 @@ class _AtNoiseFloor(Exception):
 # --------------------------------------------------------------------------
 # Stage 5: re-anchoring the continuation
 # --------------------------------------------------------------------------
+SPIN_MIN_SAMPLES = 3  # yaw samples of the last stretch needed to read a cube's spin
+SPIN_QUADRATIC_SAMPLES = 6  # from this many on, the spin's (linear) decay is fitted too
+
+
+def _observed_spin(track: ObjectTrack, breakpoints: Sequence[int], fps: float, frame: int) -> tuple[float, float] | None:
+    """A cube's yaw (rad) and yaw rate (rad/s) at ``frame`` from the yaw its track shows over
+    its last collision-free stretch (after the last breakpoint), or None when fewer than
+    SPIN_MIN_SAMPLES yaw samples are known there.
+
+    A square looks the same every quarter turn, so the yaw is unwrapped with period pi/2
+    before a least-squares line (or, from SPIN_QUADRATIC_SAMPLES samples on, a parabola:
+    the spin decays linearly while sliding, world/flows.py) is fitted in time.
+    """
+    low = breakpoints[-1] + 1 if breakpoints else -1
+    known = track.observed & (track.frames > low) & (track.frames <= frame) & np.isfinite(track.yaw)
+    if int(known.sum()) < SPIN_MIN_SAMPLES:
+        return None
+    times = track.frames[known] / fps
+    yaw = np.unwrap(track.yaw[known], period=0.5 * np.pi)
+    degree = 2 if times.size >= SPIN_QUADRATIC_SAMPLES else 1
+    coefficients = np.polyfit(times - frame / fps, yaw, degree)
+    return float(coefficients[-1]), float(coefficients[-2])
+
+
 def _anchor(world: World, track_fits: Mapping[int, TrackFit], observations: Observations, config: FitConfig) -> Anchor | None:
     """States at the last observed frame from each body's last collision-free stretch.
 
@@ -730,11 +754,14 @@ def _anchor(world: World, track_fits: Mapping[int, TrackFit], observations: Obse
         if not (seen_last.size and seen_last[0]) or stretch.samples < 3:
             continue
         position, velocity = stretch.state_at(time_at, config.gravity)
-        yaw = float(replay.yaw[last, column[body.id]])
+        yaw, yaw_rate = float(replay.yaw[last, column[body.id]]), 0.0
+        seen_spin = _observed_spin(fit.track, fit.breakpoints, observations.fps, last) if body.shape.kind == "cube" else None
+        if seen_spin is not None:  # the video shows the cube's orientation: it decides later contacts
+            yaw, yaw_rate = seen_spin
         states[body.id] = BodyState(
             (float(position[0]), float(position[1]), body.shape.rest_height),
             (float(velocity[0]), float(velocity[1]), 0.0),
-            yaw=yaw, time=time_at,
+            yaw=yaw, yaw_rate=yaw_rate, time=time_at,
         )
     # Drop anchored states that overlap anything at the anchor time.
     where = {b.id: (states[b.id].position if b.id in states else replay.positions[last, column[b.id]], b) for b in world.bodies if replay.active[last, column[b.id]] or b.id in states}

@@ -115,6 +115,11 @@ def clevrer_events(records: Iterable[Mapping[str, Any]], fps: float) -> list[Eve
     return kept
 
 
+def _event_order(event: EventRecord) -> tuple:
+    """Time order of interpreter events (frameless ones last)."""
+    return (event.frame if event.frame is not None else math.inf, event.kind, event.objects)
+
+
 def describe_event(event: EventRecord) -> str:
     where = "" if event.frame is None else f" at frame {event.frame}"
     if event.kind == "collision":
@@ -316,6 +321,15 @@ class VideoExecutor:
                     shared_calls.extend(calls)
                     facts.append(note)
                 targets = _explained_event_candidates(program, scene, bound)
+                if targets is not None and not targets and bound is not None and len(set(bound)) == 2:
+                    # The explained collision is not in the world's record: the pair's nearest
+                    # contact or approach in the replay stands in for it (stated as uncertain).
+                    stand_in, note, call = self._stand_in_collision(tuple(sorted(set(bound))))
+                    shared_calls.append(call)
+                    facts.append(note)
+                    scene = replace(scene, events=tuple(sorted((*scene.events, stand_in), key=_event_order)), _cache={})
+                    return self._answer_each_occurrence(question, question_type, program, choices, scene, (stand_in,),
+                                                        groundings, shared_calls, facts, method, started)
                 if targets is not None and len(targets) > 1:
                     return self._answer_each_occurrence(question, question_type, program, choices, scene, targets,
                                                         groundings, shared_calls, facts, method, started)
@@ -349,8 +363,9 @@ class VideoExecutor:
             reference = tuple(e for e in scene.events if e in causes)
             per_target.append((target, reference))
             facts.append(f"causes of the {describe_event(target)}: " + (", ".join(describe_event(e) for e in reference) or "none"))
-        facts.insert(0, f"the explained event occurs {len(targets)} times in the world; where the occurrences disagree "
-                        f"on an option, the first ({describe_event(targets[0])}) decides")
+        if len(targets) > 1:
+            facts.insert(0, f"the explained event occurs {len(targets)} times in the world; where the occurrences disagree "
+                            f"on an option, the first ({describe_event(targets[0])}) decides")
         answers, all_groundings = [], list(groundings)
         for k, (text, choice_program, parse_error) in enumerate(choices):
             options = [self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
@@ -368,6 +383,25 @@ class VideoExecutor:
         distinct = tuple({(g.reference, g.object_ids): g for g in all_groundings}.values())
         return Answer(question, question_type, program, tuple(answers), method=method, groundings=distinct, facts=tuple(facts),
                       tool_calls=tuple(sorted(set(shared_calls))), seconds=time.perf_counter() - started)
+
+    def _stand_in_collision(self, pair: tuple[int, int]) -> tuple[EventRecord, str, int]:
+        """(stand-in event, uncertainty fact, call index) for an explained collision of ``pair`` that the
+        world's record of the video lacks: check_contact on the base rollout over the video gives the
+        pair's first touch, else its closest approach; that frame stands in for the collision."""
+        a, b = pair
+        result = self.world.call("check_contact", object_a=a, object_b=b, rollout_id="base",
+                                 frame_start=0, frame_end=self.observed_frames - 1)
+        call = self.world.last_call.index
+        if result.get("first_frame") is not None:
+            frame, how = int(result["first_frame"]), f"their footprints touch at frame {result['first_frame']} in the replay"
+        elif result.get("nearest_frame") is not None:
+            frame = int(result["nearest_frame"])
+            how = f"their closest approach in the replay is {readable(result.get('nearest_distance'))} m at frame {frame}"
+        else:
+            frame, how = self.observed_frames - 1, "they are never present together in the replay (the end of the video stands in)"
+        event = EventRecord("collision", pair, frame)
+        return event, (f"uncertain: the explained collision of objects {a} and {b} is not in the world's record of the "
+                       f"video; {how}, so its causes are taken as those of a collision there"), call
 
     def _reference_list(self, program: tuple[str, ...], scene: ProgramScene,
                         bound: list[int] | None) -> tuple[tuple[EventRecord, ...] | None, str | None]:

@@ -141,7 +141,7 @@ def evaluate(task: tuple[Path, float, str, Path | None]) -> dict:
 
 
 def _cached_world(worlds: Path | None, index: str, noise: float, method: str):
-    """(world, fit seconds, rollouts) of a world bench_qa already fitted, or None."""
+    """(world, fit seconds, rollouts, CPU seconds or NaN) of a world bench_qa already fitted, or None."""
     if worlds is None or noise != 0 or method != "analytic":
         return None
     path = worlds / f"world_{index}.json"
@@ -149,7 +149,7 @@ def _cached_world(worlds: Path | None, index: str, noise: float, method: str):
         return None
     world = world_from_dict(json.loads(path.read_text()))
     fit = world.provenance["fit"]
-    return world, float(fit["seconds"]), int(fit["function_evaluations"])
+    return world, float(fit["seconds"]), int(fit["function_evaluations"]), float(fit.get("cpu_seconds", "nan"))
 
 
 def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None = None) -> dict:
@@ -168,8 +168,8 @@ def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None =
         seconds, evaluations = time.perf_counter() - began, report.function_evaluations
         cpu_seconds, budget_hit = time.process_time() - began_cpu, report.budget_exhausted
     else:
-        world, seconds, evaluations = cached
-        cpu_seconds, budget_hit = float("nan"), bool(world.provenance["fit"].get("budget_exhausted", False))
+        world, seconds, evaluations, cpu_seconds = cached
+        budget_hit = bool(world.provenance["fit"].get("budget_exhausted", False))
     visible = np.stack([t.visible for t in clean.objects], axis=1)
     # Each method executes its own fitted world, as its user would.
     score = score_world(world, truth, score_simulator, visible)

@@ -96,7 +96,7 @@ def _scene_rows(task: tuple[Path, Path | None, Path | None]) -> list[dict]:
     history_bodies = {b for pair, _ in observed_wrong for b in pair}
 
     def cause(pair, frame, kind, window: str) -> tuple[str, float]:
-        other = truth_events if kind == "miss" else world_events
+        other = world_events if kind == "miss" else truth_events  # the side that lacks the event
         has_side, has_columns = (truth.positions, truth_columns) if kind == "miss" else (base.positions, world_columns)
         lacks_side, lacks_columns = (base.positions, world_columns) if kind == "miss" else (truth.positions, truth_columns)
         frames = np.arange(max(0, frame - TIMING_FRAMES), min(horizon, frame + TIMING_FRAMES + 1))

@@ -10,17 +10,19 @@ world has not (a *miss*), and every one the world has and MuJoCo has not (an
 2. ``seen late``: a body is first seen in the last LATE_FRAMES frames;
 3. ``history changed``: the world misses or invents an observed collision
    (in the video, bench.metrics.match_events) of one of the two bodies;
-4. ``timing``: the same pair collides in the other side within TIMING_FRAMES
+4. ``repeated touch``: the same pair collided shortly before (REPEAT_FRAMES) in
+   the side with the event (a push, or a bounce back into contact);
+5. ``timing``: the same pair collides in the other side within TIMING_FRAMES
    but beyond the 5-frame tolerance;
-5. ``hit at rest``: a body of the pair is at rest at the last observed frame
+6. ``hit at rest``: a body of the pair is at rest at the last observed frame
    (MuJoCo speed below bench_identify.STILL_MOVING_SPEED);
-6. ``near miss``: the pair's centre distance in the side without the event
+7. ``near miss``: the pair's centre distance in the side without the event
    comes within NEAR_MISS metres of the contact distance of the side with it
    (+-TIMING_FRAMES frames);
-7. ``far off``: the rest.
+8. ``far off``: the rest.
 
 The same table for the collisions in the video (misses and inventions of
-the fitted replay), causes 1, 2, 4, 6, 7.
+the fitted replay), causes 1, 2, 4, 5, 7, 8.
 
     MUJOCO_GL=egl python -m bench.bench_future_misses DATASET [--scenes N] [--workers 2]
         [--worlds DIR] [--save-worlds DIR] [--json rows.json]
@@ -45,7 +47,8 @@ from world.rollout import simulate
 LATE_FRAMES = 10  # frames: first seen this close to the end = "seen late"
 TIMING_FRAMES = 25  # frames: same pair this close (beyond the tolerance) = "timing"
 NEAR_MISS = 0.05  # m
-CAUSES = ("never seen", "seen late", "history changed", "timing", "hit at rest", "near miss", "far off")
+REPEAT_FRAMES = 40  # frames: the pair touched this shortly before in the side with the event = "repeated touch"
+CAUSES = ("never seen", "seen late", "history changed", "repeated touch", "timing", "hit at rest", "near miss", "far off")
 
 
 def _unmatched(side: list, other: list, tolerance: int) -> list:
@@ -110,13 +113,16 @@ def _scene_rows(task: tuple[Path, Path | None, Path | None]) -> list[dict]:
             return CAUSES[1], gap
         if window == "future" and history_bodies & set(pair):
             return CAUSES[2], gap
-        if any(p == pair and abs(f - frame) <= TIMING_FRAMES for p, f in other):
+        own = truth_events if kind == "miss" else world_events
+        if any(p == pair and 0 < frame - f <= REPEAT_FRAMES for p, f in own):
             return CAUSES[3], gap
-        if window == "future" and any(speed[i] <= STILL_MOVING_SPEED for i in pair):
+        if any(p == pair and abs(f - frame) <= TIMING_FRAMES for p, f in other):
             return CAUSES[4], gap
-        if gap <= NEAR_MISS:
+        if window == "future" and any(speed[i] <= STILL_MOVING_SPEED for i in pair):
             return CAUSES[5], gap
-        return CAUSES[6], gap
+        if gap <= NEAR_MISS:
+            return CAUSES[6], gap
+        return CAUSES[7], gap
 
     rows = []
     for window, pick in (("video", in_video), ("future", after)):

@@ -321,11 +321,17 @@ class VideoExecutor:
                     shared_calls.extend(calls)
                     facts.append(note)
                 targets = _explained_event_candidates(program, scene, bound)
-                if targets is not None and not targets and bound is not None and len(set(bound)) == 2:
-                    # The explained collision is not in the world's record: the pair's nearest
-                    # contact or approach in the replay stands in for it (stated as uncertain).
-                    stand_in, note, call = self._stand_in_collision(tuple(sorted(set(bound))))
-                    shared_calls.append(call)
+                kind = _explained_event_kind(program)
+                if targets is not None and not targets and bound is not None and kind is not None:
+                    # The explained event is not in the world's record of the video: the world's
+                    # nearest evidence of it stands in (stated as uncertain), never no verdict.
+                    if kind == "collision" and len(set(bound)) == 2:
+                        stand_in, note, call = self._stand_in_collision(tuple(sorted(set(bound))))
+                        shared_calls.append(call)
+                    elif kind in ("in", "out") and len(set(bound)) == 1:
+                        stand_in, note = self._stand_in_entry_or_exit(kind, bound[0])
+                    else:
+                        raise ProgramError(f"the explained {kind} event is not in the world")
                     facts.append(note)
                     scene = replace(scene, events=tuple(sorted((*scene.events, stand_in), key=_event_order)), _cache={})
                     return self._answer_each_occurrence(question, question_type, program, choices, scene, (stand_in,),
@@ -402,6 +408,23 @@ class VideoExecutor:
         event = EventRecord("collision", pair, frame)
         return event, (f"uncertain: the explained collision of objects {a} and {b} is not in the world's record of the "
                        f"video; {how}, so its causes are taken as those of a collision there"), call
+
+    def _stand_in_entry_or_exit(self, kind: str, object_id: int) -> tuple[EventRecord, str]:
+        """(stand-in event, uncertainty fact) for an explained entry / exit of ``object_id`` that the world
+        lacks in the video: the world's first such event of the object (the base rollout, beyond the video
+        too), moved to the last observed frame if later; without one, the end of the video (exit) or its
+        start (entry)."""
+        found = [e for e in self.base_events() if e.kind == kind and e.objects == (object_id,) and e.frame is not None]
+        verb = "exit" if kind == "out" else "entry"
+        if found:
+            frame = min(found[0].frame, self.observed_frames - 1)
+            how = f"the world's {verb} of object {object_id} is at frame {found[0].frame}"
+        else:
+            frame = self.observed_frames - 1 if kind == "out" else 0
+            how = f"the world has no {verb} of object {object_id}"
+        return EventRecord(kind, (object_id,), frame), (
+            f"uncertain: the explained {verb} of object {object_id} is not among the world's events of the video; {how}, "
+            f"so its causes are taken as those of an {verb} at frame {frame}")
 
     def _reference_list(self, program: tuple[str, ...], scene: ProgramScene,
                         bound: list[int] | None) -> tuple[tuple[EventRecord, ...] | None, str | None]:
@@ -591,6 +614,14 @@ def _explained_event_candidates(program: Sequence[str], scene: ProgramScene,
     if not isinstance(candidates, tuple) or any(not isinstance(c, EventRecord) for c in candidates):
         return None
     return candidates
+
+
+def _explained_event_kind(program: Sequence[str]) -> str | None:
+    """"collision" / "in" / "out": the kind of the explained event of ``events <E> filter_ancestor belong_to``."""
+    tail = list(program[:-1]) if program and program[-1] == "negate" else list(program)
+    if len(tail) < 5 or tail[-2:] != ["filter_ancestor", "belong_to"] or tail[-3] != "unique":
+        return None
+    return {"filter_collision": "collision", "filter_in": "in", "filter_out": "out"}.get(tail[-4])
 
 
 def _counterfactual_form(program: Sequence[str]) -> bool:

@@ -296,3 +296,16 @@ def test_an_explained_collision_missing_from_the_record_is_decided_from_the_repl
     assert answer.verdicts == truth and "correct" in truth and "wrong" in truth
     assert any("uncertain" in fact and f"frame {contact}" in fact for fact in answer.facts)
     assert any(call.tool == "check_contact" for call in executor.world.calls)
+
+
+def test_an_explained_exit_missing_from_the_video_is_decided_from_the_worlds_later_exit():
+    """The world has object 2 leave the view only after the video (frame 140): the question about its exit
+    in the video still gets verdicts, from the causes of an exit at the last observed frame, stated uncertain."""
+    events = [_record("collision", (0, 1), 10), _record("collision", (1, 2), 30), _record("out", (2,), 140)]
+    world = _scripted_world(events, [(0, "red", "metal", "cube"), (1, "blue", "rubber", "cube"), (2, "green", "metal", "sphere"),
+                                     (3, "gray", "rubber", "cylinder")])
+    answer = VideoExecutor(world).answer_text(
+        "Which of the following is responsible for the green object's exit?",
+        ["the presence of the red object", "the presence of the gray object", "the collision between the blue object and the green object"])
+    assert answer.verdicts == ["correct", "wrong", "correct"]  # exit <- c12@30 <- c01@10; the gray one takes no part
+    assert any("uncertain" in fact and "frame 140" in fact and "frame 127" in fact for fact in answer.facts)

@@ -22,6 +22,8 @@ run on the world, the executor says why and decides only what follows without
 a guess: an object the world lacks (never in view) takes part in no event;
 an option's event the rollout lacks is not listed; an explained event that
 occurs several times is decided by its first occurrence where the occurrences disagree (stated as uncertain);
+an explained event the world lacks in the video is stood in for by the world's nearest evidence of it (the
+pair's first touch or closest approach; the object's first entry/exit) and stated as uncertain;
 a reference that matches several objects or none is decided by the attribute
 probabilities (planner.grounding), the choice and its probability stated in
 the facts (docs/planner.md). The

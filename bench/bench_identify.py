@@ -28,6 +28,9 @@ the one recorded in the world's fit report.
 iteration (the A/B of the secant Jacobian), in the same run. A second table
 gives the fit cost: wall and CPU seconds, rollouts, budget hits.
 
+``--budget S`` also fits with a joint-refinement budget of S CPU seconds
+(``FitConfig.time_budget_seconds``), in the same run.
+
 ``--baseline`` also fits with the fixed-step integrator of the same model
 (``bench.fixed_step``, dt = 1/100 s) and the same optimiser, in the same run.
 
@@ -63,6 +66,7 @@ PREDICTORS = ("world", "hold", "const-vel")
 ROLLING_SPHERES = "roll-spheres"  # the same fit with spheres that skid then roll (FitConfig(rolling_spheres=True))
 FORWARD_JACOBIAN = "fd-jacobian"  # the same fit with a forward-difference Jacobian every iteration (FitConfig(secant_jacobian=False))
 FRICTIONLESS = "frictionless"  # the same fit without friction between bodies (FitConfig(friction_between_bodies=False))
+BUDGET = "budget-"  # + CPU seconds: the same fit with FitConfig(time_budget_seconds=...) (--budget)
 
 
 def _future_truth(annotation: Path, index: str) -> dict | None:
@@ -121,7 +125,7 @@ def _noisy(observations: Observations, sigma: float, seed: int) -> Observations:
 
 
 def _simulator(method: str):
-    if method in ("analytic", ROLLING_SPHERES, FORWARD_JACOBIAN, FRICTIONLESS):
+    if method in ("analytic", ROLLING_SPHERES, FORWARD_JACOBIAN, FRICTIONLESS) or method.startswith(BUDGET):
         return None, lambda world, edits, horizon: simulate(world, edits, horizon)
 
     def stepper(world, edits, horizon):
@@ -141,7 +145,7 @@ def evaluate(task: tuple[Path, float, str, Path | None]) -> dict:
 
 
 def _cached_world(worlds: Path | None, index: str, noise: float, method: str):
-    """(world, fit seconds, rollouts) of a world bench_qa already fitted, or None."""
+    """(world, fit seconds, rollouts, CPU seconds or NaN) of a world bench_qa already fitted, or None."""
     if worlds is None or noise != 0 or method != "analytic":
         return None
     path = worlds / f"world_{index}.json"
@@ -149,7 +153,7 @@ def _cached_world(worlds: Path | None, index: str, noise: float, method: str):
         return None
     world = world_from_dict(json.loads(path.read_text()))
     fit = world.provenance["fit"]
-    return world, float(fit["seconds"]), int(fit["function_evaluations"])
+    return world, float(fit["seconds"]), int(fit["function_evaluations"]), float(fit.get("cpu_seconds", "nan"))
 
 
 def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None = None) -> dict:
@@ -162,14 +166,16 @@ def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None =
     cached = _cached_world(worlds, index, noise, method)
     if cached is None:
         began, began_cpu = time.perf_counter(), time.process_time()
-        world, report = identify(observations, FitConfig(simulator=fit_simulator, rolling_spheres=method == ROLLING_SPHERES,
-                                                         secant_jacobian=method != FORWARD_JACOBIAN,
-                                                         friction_between_bodies=method != FRICTIONLESS))
+        config = FitConfig(simulator=fit_simulator, rolling_spheres=method == ROLLING_SPHERES,
+                           secant_jacobian=method != FORWARD_JACOBIAN, friction_between_bodies=method != FRICTIONLESS)
+        if method.startswith(BUDGET):
+            config = replace(config, time_budget_seconds=float(method[len(BUDGET):]))
+        world, report = identify(observations, config)
         seconds, evaluations = time.perf_counter() - began, report.function_evaluations
         cpu_seconds, budget_hit = time.process_time() - began_cpu, report.budget_exhausted
     else:
-        world, seconds, evaluations = cached
-        cpu_seconds, budget_hit = float("nan"), bool(world.provenance["fit"].get("budget_exhausted", False))
+        world, seconds, evaluations, cpu_seconds = cached
+        budget_hit = bool(world.provenance["fit"].get("budget_exhausted", False))
     visible = np.stack([t.visible for t in clean.objects], axis=1)
     # Each method executes its own fitted world, as its user would.
     score = score_world(world, truth, score_simulator, visible)
@@ -321,6 +327,8 @@ def main(argv: list[str] | None = None) -> int:
                         help="also fit with a forward-difference Jacobian every iteration (FitConfig(secant_jacobian=False)), same run")
     parser.add_argument("--frictionless", action="store_true",
                         help="also fit without friction between bodies (FitConfig(friction_between_bodies=False)), same run")
+    parser.add_argument("--budget", type=float, default=None,
+                        help="also fit with FitConfig(time_budget_seconds=BUDGET) CPU seconds, same run (rows 'budget-S')")
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--json", type=Path, help="write every per-scene row here")
     parser.add_argument("--worlds", type=Path, default=None,
@@ -338,6 +346,8 @@ def main(argv: list[str] | None = None) -> int:
         tasks += [(a, noise, FORWARD_JACOBIAN, None) for noise in noises for a in annotations]
     if args.frictionless:
         tasks += [(a, noise, FRICTIONLESS, None) for noise in noises for a in annotations]
+    if args.budget is not None:
+        tasks += [(a, noise, f"{BUDGET}{args.budget:g}", None) for noise in noises for a in annotations]
     if args.baseline:
         for a in annotations[: args.baseline_scenes]:
             tasks += [(a, noise, "fixed-1/100", None) for noise in noises]

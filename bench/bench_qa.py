@@ -75,6 +75,8 @@ def fixture_overlap(entries) -> int:
 
 # no world: the build failed; object absent: the option or question names an object the world lacks (never
 # in view); ambiguous: a reference matches several objects; event absent: the explained event is not in the world.
+SERVER_START_SECONDS = 300.0
+
 MISS_CAUSES = ("no world", "object absent", "ambiguous ref", "event absent", "undecided other", "decided wrong")
 
 
@@ -142,7 +144,8 @@ def main(argv: list[str] | None = None) -> int:
         print("# row (a) from video skipped: perception/pipeline.py is not available")
     video_entries = entries[: args.video_limit] if args.video_limit else entries
 
-    with local_server() as url, ToolClient(url) as client:
+    # A loaded shared machine can take minutes to start the server (60 s was not enough at load 18).
+    with local_server(timeout=SERVER_START_SECONDS) as url, ToolClient(url) as client:
         built = {}
         for source, subset in [("annotation", entries)] + ([("video", video_entries)] if run_video else []):
             cache = None if args.cache is None else args.cache / source

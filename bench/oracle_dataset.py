@@ -21,9 +21,8 @@ from pathlib import Path
 
 import numpy as np
 
-from synth.annotate import annotation_document, ground_truth_document, program_scene_from_ground_truth, video_filename
-from synth.generate import _dump, sample_accepted_scene, write_questions
-from synth.questions import scene_questions
+from synth.annotate import annotation_document, ground_truth_document
+from synth.generate import _dump, questions_entry, sample_accepted_scene, write_questions
 from synth.simulate import simulate
 
 
@@ -44,9 +43,8 @@ def oracle_scene(out: Path, seed: int, index: int) -> dict:
         "object_ids": [int(o.object_id) for o in spec.objects],
         "positions": np.round(longer.positions, 5).tolist(),  # (T, N, 3) m, objects in object_ids order
     })
-    question_rng = np.random.default_rng(np.random.SeedSequence([seed, index, 1]))
-    questions = scene_questions(program_scene_from_ground_truth(ground_truth), question_rng)
-    return {"scene_index": index, "video_filename": video_filename(index), "questions": questions}
+    # physmind synth's own question entry: only objects seen in the video are named.
+    return questions_entry(ground_truth, seed, index)
 
 
 def _job(job: tuple[str, int, int]) -> dict:

@@ -22,6 +22,8 @@ run on the world, the executor says why and decides only what follows without
 a guess: an object the world lacks (never in view) takes part in no event;
 an option's event the rollout lacks is not listed; an explained event that
 occurs several times is decided by its first occurrence where the occurrences disagree (stated as uncertain);
+an explained event the world lacks in the video is stood in for by the world's nearest evidence of it (the
+pair's first touch or closest approach; the object's first entry/exit) and stated as uncertain;
 a reference that matches several objects or none is decided by the attribute
 probabilities (planner.grounding), the choice and its probability stated in
 the facts (docs/planner.md). The
@@ -113,6 +115,11 @@ def clevrer_events(records: Iterable[Mapping[str, Any]], fps: float) -> list[Eve
                 continue
         kept.append(event)
     return kept
+
+
+def _event_order(event: EventRecord) -> tuple:
+    """Time order of interpreter events (frameless ones last)."""
+    return (event.frame if event.frame is not None else math.inf, event.kind, event.objects)
 
 
 def describe_event(event: EventRecord) -> str:
@@ -316,6 +323,21 @@ class VideoExecutor:
                     shared_calls.extend(calls)
                     facts.append(note)
                 targets = _explained_event_candidates(program, scene, bound)
+                kind = _explained_event_kind(program)
+                if targets is not None and not targets and bound is not None and kind is not None:
+                    # The explained event is not in the world's record of the video: the world's
+                    # nearest evidence of it stands in (stated as uncertain), never no verdict.
+                    if kind == "collision" and len(set(bound)) == 2:
+                        stand_in, note, call = self._stand_in_collision(tuple(sorted(set(bound))))
+                        shared_calls.append(call)
+                    elif kind in ("in", "out") and len(set(bound)) == 1:
+                        stand_in, note = self._stand_in_entry_or_exit(kind, bound[0])
+                    else:
+                        raise ProgramError(f"the explained {kind} event is not in the world")
+                    facts.append(note)
+                    scene = replace(scene, events=tuple(sorted((*scene.events, stand_in), key=_event_order)), _cache={})
+                    return self._answer_each_occurrence(question, question_type, program, choices, scene, (stand_in,),
+                                                        groundings, shared_calls, facts, method, started)
                 if targets is not None and len(targets) > 1:
                     return self._answer_each_occurrence(question, question_type, program, choices, scene, targets,
                                                         groundings, shared_calls, facts, method, started)
@@ -349,8 +371,9 @@ class VideoExecutor:
             reference = tuple(e for e in scene.events if e in causes)
             per_target.append((target, reference))
             facts.append(f"causes of the {describe_event(target)}: " + (", ".join(describe_event(e) for e in reference) or "none"))
-        facts.insert(0, f"the explained event occurs {len(targets)} times in the world; where the occurrences disagree "
-                        f"on an option, the first ({describe_event(targets[0])}) decides")
+        if len(targets) > 1:
+            facts.insert(0, f"the explained event occurs {len(targets)} times in the world; where the occurrences disagree "
+                            f"on an option, the first ({describe_event(targets[0])}) decides")
         answers, all_groundings = [], list(groundings)
         for k, (text, choice_program, parse_error) in enumerate(choices):
             options = [self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
@@ -368,6 +391,42 @@ class VideoExecutor:
         distinct = tuple({(g.reference, g.object_ids): g for g in all_groundings}.values())
         return Answer(question, question_type, program, tuple(answers), method=method, groundings=distinct, facts=tuple(facts),
                       tool_calls=tuple(sorted(set(shared_calls))), seconds=time.perf_counter() - started)
+
+    def _stand_in_collision(self, pair: tuple[int, int]) -> tuple[EventRecord, str, int]:
+        """(stand-in event, uncertainty fact, call index) for an explained collision of ``pair`` that the
+        world's record of the video lacks: check_contact on the base rollout over the video gives the
+        pair's first touch, else its closest approach; that frame stands in for the collision."""
+        a, b = pair
+        result = self.world.call("check_contact", object_a=a, object_b=b, rollout_id="base",
+                                 frame_start=0, frame_end=self.observed_frames - 1)
+        call = self.world.last_call.index
+        if result.get("first_frame") is not None:
+            frame, how = int(result["first_frame"]), f"their footprints touch at frame {result['first_frame']} in the replay"
+        elif result.get("nearest_frame") is not None:
+            frame = int(result["nearest_frame"])
+            how = f"their closest approach in the replay is {readable(result.get('nearest_distance'))} m at frame {frame}"
+        else:
+            frame, how = self.observed_frames - 1, "they are never present together in the replay (the end of the video stands in)"
+        event = EventRecord("collision", pair, frame)
+        return event, (f"uncertain: the explained collision of objects {a} and {b} is not in the world's record of the "
+                       f"video; {how}, so its causes are taken as those of a collision there"), call
+
+    def _stand_in_entry_or_exit(self, kind: str, object_id: int) -> tuple[EventRecord, str]:
+        """(stand-in event, uncertainty fact) for an explained entry / exit of ``object_id`` that the world
+        lacks in the video: the world's first such event of the object (the base rollout, beyond the video
+        too), moved to the last observed frame if later; without one, the end of the video (exit) or its
+        start (entry)."""
+        found = [e for e in self.base_events() if e.kind == kind and e.objects == (object_id,) and e.frame is not None]
+        verb = "exit" if kind == "out" else "entry"
+        if found:
+            frame = min(found[0].frame, self.observed_frames - 1)
+            how = f"the world's {verb} of object {object_id} is at frame {found[0].frame}"
+        else:
+            frame = self.observed_frames - 1 if kind == "out" else 0
+            how = f"the world has no {verb} of object {object_id}"
+        return EventRecord(kind, (object_id,), frame), (
+            f"uncertain: the explained {verb} of object {object_id} is not among the world's events of the video; {how}, "
+            f"so its causes are taken as those of an {verb} at frame {frame}")
 
     def _reference_list(self, program: tuple[str, ...], scene: ProgramScene,
                         bound: list[int] | None) -> tuple[tuple[EventRecord, ...] | None, str | None]:
@@ -557,6 +616,14 @@ def _explained_event_candidates(program: Sequence[str], scene: ProgramScene,
     if not isinstance(candidates, tuple) or any(not isinstance(c, EventRecord) for c in candidates):
         return None
     return candidates
+
+
+def _explained_event_kind(program: Sequence[str]) -> str | None:
+    """"collision" / "in" / "out": the kind of the explained event of ``events <E> filter_ancestor belong_to``."""
+    tail = list(program[:-1]) if program and program[-1] == "negate" else list(program)
+    if len(tail) < 5 or tail[-2:] != ["filter_ancestor", "belong_to"] or tail[-3] != "unique":
+        return None
+    return {"filter_collision": "collision", "filter_in": "in", "filter_out": "out"}.get(tail[-4])
 
 
 def _counterfactual_form(program: Sequence[str]) -> bool:

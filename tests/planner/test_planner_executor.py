@@ -270,3 +270,42 @@ def test_explanatory_answers_come_from_the_observed_collisions(tool_client, six_
     assert any("record of the video" in fact for fact in answer.facts)
     replay_only = VideoExecutor(tool_client.create_world(world_to_dict(six_world))).answer_text(question, choices)
     assert replay_only.verdicts == ["correct", "correct"]  # the replay alone says otherwise
+
+
+def test_an_explained_collision_missing_from_the_record_is_decided_from_the_replays_contact(tool_client, six_world):
+    """The record of the video lacks the explained collision (3, 4): every option still gets a verdict,
+    from the causes of a collision at the replay's contact frame, and the facts say it is uncertain."""
+    rollout = simulate(six_world)
+    replayed = [(min(e.bodies), max(e.bodies), e.frame) for e in rollout.events
+                if e.kind == "collision" and e.frame < six_world.observed_frames]
+    contact = next(frame for a, b, frame in replayed if (a, b) == (3, 4))
+    record = tuple(c for c in replayed if c[:2] != (3, 4))
+    executor = VideoExecutor(tool_client.create_world(world_to_dict(dataclasses.replace(six_world, observed_collisions=record))))
+    choices = [f"the presence of the {COLOR[i]} object" for i in range(6)] + ["the collision between the red object and the blue object"]
+    answer = executor.answer_text("Which of the following is responsible for the collision between the yellow object and the purple object?", choices)
+    others = tuple(EventRecord(e.kind, tuple(e.bodies), e.frame) for e in rollout.events
+                   if e.kind in ("in", "out") and e.frame < six_world.observed_frames)
+    stand_in = EventRecord("collision", (3, 4), contact)
+    scene = ProgramScene(objects=(), events=tuple(sorted(others + tuple(EventRecord("collision", c[:2], c[2]) for c in record) + (stand_in,),
+                                                         key=lambda e: (e.frame, e.kind, e.objects))))
+    causes = causal_ancestors(scene, stand_in)
+    responsible = {o for e in causes for o in e.objects}
+    truth = ["correct" if i in responsible else "wrong" for i in range(6)]
+    truth.append("correct" if any(e.objects == (0, 1) and e.kind == "collision" for e in causes) else "wrong")
+    assert None not in answer.verdicts
+    assert answer.verdicts == truth and "correct" in truth and "wrong" in truth
+    assert any("uncertain" in fact and f"frame {contact}" in fact for fact in answer.facts)
+    assert any(call.tool == "check_contact" for call in executor.world.calls)
+
+
+def test_an_explained_exit_missing_from_the_video_is_decided_from_the_worlds_later_exit():
+    """The world has object 2 leave the view only after the video (frame 140): the question about its exit
+    in the video still gets verdicts, from the causes of an exit at the last observed frame, stated uncertain."""
+    events = [_record("collision", (0, 1), 10), _record("collision", (1, 2), 30), _record("out", (2,), 140)]
+    world = _scripted_world(events, [(0, "red", "metal", "cube"), (1, "blue", "rubber", "cube"), (2, "green", "metal", "sphere"),
+                                     (3, "gray", "rubber", "cylinder")])
+    answer = VideoExecutor(world).answer_text(
+        "Which of the following is responsible for the green object's exit?",
+        ["the presence of the red object", "the presence of the gray object", "the collision between the blue object and the green object"])
+    assert answer.verdicts == ["correct", "wrong", "correct"]  # exit <- c12@30 <- c01@10; the gray one takes no part
+    assert any("uncertain" in fact and "frame 140" in fact and "frame 127" in fact for fact in answer.facts)

@@ -67,6 +67,6 @@ def run(args: argparse.Namespace) -> int:
         )
     print(
         f"fit: {len(world.bodies)} bodies, {len(report.collisions_used)} collisions used, "
-        f"{report.function_evaluations} rollouts, {report.seconds:.2f}s, rmse {report.rmse * 100:.1f}cm -> {args.output}"
+        f"{report.function_evaluations} rollouts, {report.seconds:.2f} s wall ({report.cpu_seconds:.2f} s CPU){' budget exhausted' if report.budget_exhausted else ''}, rmse {report.rmse * 100:.1f}cm -> {args.output}"
     )
     return 0

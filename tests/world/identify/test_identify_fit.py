@@ -155,9 +155,11 @@ def test_mass_prior_uses_the_mesh_volume_when_there_is_one(tmp_path):
 
 def test_time_budget_keeps_the_best_fit_and_says_so():
     observations = _observe(CHAIN, CHAIN.observed_frames)
-    _, full = identify(observations)
+    _, full = identify(observations, FitConfig(time_budget_seconds=60.0))
     assert not full.budget_exhausted and full.skipped_stages == 0
     assert full.to_dict()["budget_exhausted"] is False
+    # The report gives the budget's clock (CPU) beside the wall clock.
+    assert 0 < full.cpu_seconds and full.to_dict()["cpu_seconds"] == full.cpu_seconds
     # No time at all: every joint stage is skipped, the local fits stand, the report says so.
     _, none = identify(observations, FitConfig(time_budget_seconds=0.0))
     assert none.budget_exhausted and none.skipped_stages == full.stages and none.function_evaluations == 0

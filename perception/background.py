@@ -10,8 +10,8 @@ Background (estimate_background), from up to 25 frames spread over the video:
   judged against the floor's own texture: a checker, granite or image floor deviates from a
   quadratic everywhere, so the deviation threshold is the video's typical deviation plus a multiple
   of its spread (a flat floor keeps the fixed 14 grey levels) and the texture stays in the background;
-* per pixel a noise level: the robust temporal spread (MAD) of the pixel over the sampled frames,
-  widened by a 3x3 maximum (grainy soft shadows, h264 flicker at texture edges).
+* per pixel a noise level: the robust temporal spread (MAD) of the pixel's channel sum over the
+  sampled frames, per channel, widened by a 3x3 maximum (grainy soft shadows, h264 flicker at texture edges).
 
 Evidence in a frame (classify_pixels):
 
@@ -133,9 +133,10 @@ def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLE
     if frames.ndim != 4 or frames.shape[-1] != 3 or frames.shape[0] == 0:
         raise ValueError(f"frames: expected (F, H, W, 3) with F >= 1, got {frames.shape}")
     index = np.unique(np.linspace(0, frames.shape[0] - 1, min(max_samples, frames.shape[0])).round().astype(int))
-    sample = frames[index]
-    median = np.median(sample, axis=0).astype(np.float32)
-    bright = np.percentile(sample, SHADOW_QUANTILE, axis=0).astype(np.float32)
+    ordered = np.sort(frames[index], axis=0)  # one sort gives the median and the bright state
+    count = len(index)
+    median = (0.5 * (ordered[(count - 1) // 2].astype(np.float32) + ordered[count // 2])).astype(np.float32)
+    bright = ordered[int(round(SHADOW_QUANTILE / 100 * (count - 1)))].astype(np.float32)
     floor_fit = fit_floor(median)  # robust: resting objects and shadows are its outliers
     deviation = np.abs(median - floor_fit).max(axis=-1)
     threshold = static_threshold(deviation)
@@ -147,7 +148,8 @@ def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLE
     unshadowed = np.where(shadowed[..., None], bright, median)
     static = np.where(shadowed, False, deviation > threshold)
     image = np.where(static[..., None], floor_fit, unshadowed)
-    spread = np.median(np.abs(sample.astype(np.float32) - median).max(axis=-1), axis=0) * 1.4826
+    grey = frames[index].sum(axis=-1, dtype=np.int16)  # the channel sum's noise, per channel: cheaper than per channel
+    spread = np.median(np.abs(grey - median.sum(axis=-1).astype(np.int16)), axis=0) * (1.4826 / 3.0)
     noise = np.minimum(ndi.maximum_filter(spread, size=3), MAX_NOISE).astype(np.float32)
     return Background(image=image, floor_fit=floor_fit, static=static, noise=noise)
 

@@ -125,6 +125,7 @@ def test_checker_floor_gives_no_object_evidence(checker_video):
     assert objects < 1e-3 * floor_pixels, f"{objects} of {floor_pixels} checker floor pixels away from the objects are object evidence"
 
 
+@pytest.mark.slow
 def test_checker_floor_with_grainy_soft_shadows_gives_one_track_per_object(checker_video):
     observations, _ = perceive_frames(checker_video[0], CAMERA)
     kinds = sorted((o.shape.kind, o.color) for o in observations.objects)

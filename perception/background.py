@@ -1,35 +1,53 @@
-"""Static-camera background model and per-pixel foreground evidence.
+"""Static-camera background model that calibrates itself on each video, and per-pixel foreground evidence.
 
-The background is the per-pixel temporal median, except where that median is
-not floor (an object resting the whole video, or its shadow): there a smooth
-floor model (a robust quadratic in pixel coordinates per channel) replaces it.
+Background (estimate_background), from up to 25 frames spread over the video:
 
-Per-pixel evidence in a frame, from the ratio rho_c = frame_c / background_c:
+* per pixel the temporal median, except where the pixel spends a good part of the video in a
+  shadow (a resting object's): there its bright, floor-chroma state (the 80th percentile) is the
+  floor, so the shadow's ghost is not an object once the object leaves;
+* where the median is still not floor (an object resting the whole video, or its shadow), a smooth
+  floor model (a robust quadratic in pixel coordinates per channel) replaces it. "Not floor" is
+  judged against the floor's own texture: a checker, granite or image floor deviates from a
+  quadratic everywhere, so the deviation threshold is the video's typical deviation plus a multiple
+  of its spread (a flat floor keeps the fixed 14 grey levels) and the texture stays in the background;
+* per pixel a noise level: the robust temporal spread (MAD) of the pixel's channel sum over the
+  sampled frames, per channel, widened by a 3x3 maximum (grainy soft shadows, h264 flicker at texture edges).
 
-* shadow: all channels darkened by the same factor (floor chroma kept) and not
-  darker than a shadow can be -> floor;
-* object: chroma changed (coloured objects), much darker than any shadow
-  (grey and dark objects), or brighter than the floor (highlights, bright
-  colours);
-* ambiguous: shadow-like darkening of medium depth, which is what a lit
-  grey object looks like as well; the silhouette fit (lift.py) treats it as
-  neither object nor floor.
+Evidence in a frame (classify_pixels):
+
+* a pixel is a *candidate* only when it leaves the range its 3x3 background neighbourhood spans,
+  by more than max(8 grey levels, 3 x its noise) in some channel: a textured floor shifted by a
+  pixel of compression error, or grain the pixel showed as floor, gives no evidence;
+* candidates are judged by the ratio rho_c = frame_c / background_c: shadow = all channels
+  darkened by the same factor (floor chroma kept, the chroma limit widened by the pixel's relative
+  noise) and not darker than a shadow can be -> floor / ambiguous; object = chroma changed
+  (coloured objects), much darker than any shadow (grey and dark objects), or brighter than the
+  floor (highlights, bright colours); ambiguous = shadow-like darkening of medium depth, which is
+  what a lit grey object looks like as well (the silhouette fit, lift.py, treats it as neither).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
+from scipy import ndimage as ndi
 
 # Thresholds on the frame/background ratio, measured on the generator's
 # fixture videos (docs/perception.md): floor shadows darken to 0.56-0.9 of the
 # floor with unchanged chroma; grey rubber objects sit at 0.35-0.75.
-CHROMA_OBJECT = 0.10  # max |rho_c - rho_mean| / rho_mean above which a pixel is an object
+CHROMA_OBJECT = 0.10  # max |rho_c - rho_mean| / rho_mean above which a pixel is an object (noise-free pixel)
 DARK_OBJECT = 0.50  # mean ratio below which a pixel is darker than any shadow
 BRIGHT_OBJECT = 1.12  # mean ratio above which a pixel is brighter than the lit floor
 FLOOR_RATIO = 0.92  # mean ratio above which a neutral pixel is plain floor
-FLOOR_DEVIATION = 14.0  # grey levels: median pixels further than this from the floor model are not floor
+FLOOR_DEVIATION = 14.0  # grey levels: median pixels further than this from the floor model are not floor (flat floor)
+TEXTURE_SPREADS = 4.0  # on a textured floor: typical deviation + this many robust spreads is still floor
+CANDIDATE_DIFFERENCE = 8  # grey levels outside the 3x3 background range below which a pixel is floor (noise-free pixel)
+NOISE_MULTIPLE = 3.0  # a pixel's tolerance is at least this many of its own noise levels (grey levels)
+MAX_NOISE = 20.0  # grey levels: cap of the noise level (a pixel crossed by objects in most frames is not noise)
+SHADOW_QUANTILE = 80  # percentile over time of a pixel's bright state (the floor seen between a resting object's shadow)
+SHADOW_LIFT = 1.15  # bright state / median (mean ratio) above which, with the chroma kept, the median was a shadow
+BACKGROUND_SAMPLES = 25  # frames spread over the video for the temporal statistics
 
 FLOOR, AMBIGUOUS, OBJECT = 0, 1, 2
 
@@ -37,11 +55,34 @@ FLOOR, AMBIGUOUS, OBJECT = 0, 1, 2
 @dataclass(frozen=True)
 class Background:
     """image: (H, W, 3) float32 RGB background; floor_fit: (H, W, 3) smooth floor model;
-    static: (H, W) bool, where the temporal median was not floor (static objects, shadows)."""
+    static: (H, W) bool, where the temporal median was not floor (static objects, shadows);
+    noise: (H, W) float32 grey levels, the pixel's own temporal noise (zeros when not given)."""
 
     image: np.ndarray
     floor_fit: np.ndarray
     static: np.ndarray
+    noise: np.ndarray | None = field(default=None)
+
+    def __post_init__(self) -> None:
+        height, width = self.image.shape[:2]
+        if self.image.shape != (height, width, 3) or self.floor_fit.shape != self.image.shape:
+            raise ValueError(f"Background: image and floor_fit must be (H, W, 3), got {self.image.shape} and {self.floor_fit.shape}")
+        if self.static.shape != (height, width):
+            raise ValueError(f"Background: static must be (H, W) = {(height, width)}, got {self.static.shape}")
+        if self.noise is None:
+            object.__setattr__(self, "noise", np.zeros((height, width), np.float32))
+        elif self.noise.shape != (height, width):
+            raise ValueError(f"Background: noise must be (H, W) = {(height, width)}, got {self.noise.shape}")
+
+
+@dataclass(frozen=True)
+class FloorRange:
+    """Per-video precomputation of the candidate test: a pixel inside [low, high] (per channel, grey
+    levels, int16, (H, W, 3)) is floor; chroma_limit (H, W) float32 is the pixel's chroma threshold."""
+
+    low: np.ndarray
+    high: np.ndarray
+    chroma_limit: np.ndarray
 
 
 def _quadratic_design(height: int, width: int) -> np.ndarray:
@@ -71,29 +112,76 @@ def fit_floor(median: np.ndarray, iterations: int = 4) -> np.ndarray:
     return fit.reshape(height, width, 3).astype(np.float32)
 
 
-def estimate_background(frames: np.ndarray, max_samples: int = 25) -> Background:
-    """Background of a static-camera video.
+def static_threshold(deviation: np.ndarray) -> float:
+    """Grey levels of deviation from the smooth floor model above which a median pixel is not floor.
 
-    frames: (F, H, W, 3) uint8 RGB. Uses at most ``max_samples`` evenly spaced
-    frames for the median (objects move, so each pixel is floor most of the time).
+    deviation: (H, W) |median - floor model|, max over channels. Most pixels are floor, so the
+    median deviation and its robust spread describe the floor's own texture (about 1 and 0.5 on a
+    flat floor, 13-18 and 2-3 on a checker); a flat floor keeps FLOOR_DEVIATION.
+    """
+    typical = float(np.median(deviation))
+    spread = 1.4826 * float(np.median(np.abs(deviation - typical)))
+    return max(FLOOR_DEVIATION, typical + TEXTURE_SPREADS * spread)
+
+
+def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLES) -> Background:
+    """Background of a static-camera video (see the module docstring).
+
+    frames: (F, H, W, 3) uint8 RGB. Uses at most ``max_samples`` evenly spaced frames (objects move,
+    so each pixel is floor most of the time).
     """
     if frames.ndim != 4 or frames.shape[-1] != 3 or frames.shape[0] == 0:
         raise ValueError(f"frames: expected (F, H, W, 3) with F >= 1, got {frames.shape}")
     index = np.unique(np.linspace(0, frames.shape[0] - 1, min(max_samples, frames.shape[0])).round().astype(int))
-    median = np.median(frames[index], axis=0).astype(np.float32)
-    floor_fit = fit_floor(median)
-    static = np.abs(median - floor_fit).max(axis=-1) > FLOOR_DEVIATION
-    image = np.where(static[..., None], floor_fit, median)
-    return Background(image=image, floor_fit=floor_fit, static=static)
+    ordered = np.sort(frames[index], axis=0)  # one sort gives the median and the bright state
+    count = len(index)
+    median = (0.5 * (ordered[(count - 1) // 2].astype(np.float32) + ordered[count // 2])).astype(np.float32)
+    bright = ordered[int(round(SHADOW_QUANTILE / 100 * (count - 1)))].astype(np.float32)
+    floor_fit = fit_floor(median)  # robust: resting objects and shadows are its outliers
+    deviation = np.abs(median - floor_fit).max(axis=-1)
+    threshold = static_threshold(deviation)
+    lift = bright / np.maximum(median, 1.0)
+    lift_mean = lift.mean(axis=-1)
+    kept_chroma = np.abs(lift - lift_mean[..., None]).max(axis=-1) / lift_mean < CHROMA_OBJECT
+    # the bright state must itself look like floor: a grey object resting part of the video is not the floor
+    shadowed = (lift_mean > SHADOW_LIFT) & kept_chroma & (np.abs(bright - floor_fit).max(axis=-1) <= threshold)
+    unshadowed = np.where(shadowed[..., None], bright, median)
+    static = np.where(shadowed, False, deviation > threshold)
+    image = np.where(static[..., None], floor_fit, unshadowed)
+    grey = frames[index].sum(axis=-1, dtype=np.int16)  # the channel sum's noise, per channel: cheaper than per channel
+    spread = np.median(np.abs(grey - median.sum(axis=-1).astype(np.int16)), axis=0) * (1.4826 / 3.0)
+    noise = np.minimum(ndi.maximum_filter(spread, size=3), MAX_NOISE).astype(np.float32)
+    return Background(image=image, floor_fit=floor_fit, static=static, noise=noise)
 
 
-def classify_pixels(frame: np.ndarray, background: Background) -> np.ndarray:
-    """(H, W) uint8 labels FLOOR / AMBIGUOUS / OBJECT for one (H, W, 3) uint8 frame."""
-    ratio = frame.astype(np.float32) / np.maximum(background.image, 1.0)
-    mean = ratio.mean(axis=-1)
-    chroma = np.abs(ratio - mean[..., None]).max(axis=-1) / np.maximum(mean, 0.05)
-    labels = np.full(mean.shape, AMBIGUOUS, dtype=np.uint8)
-    labels[(mean >= FLOOR_RATIO) & (chroma < CHROMA_OBJECT)] = FLOOR
-    objects = (chroma >= CHROMA_OBJECT) | (mean < DARK_OBJECT) | (mean > BRIGHT_OBJECT)
-    labels[objects] = OBJECT
+def floor_range(background: Background) -> FloorRange:
+    """The per-video candidate test of classify_pixels (computed once per video)."""
+    tolerance = np.maximum(CANDIDATE_DIFFERENCE, NOISE_MULTIPLE * background.noise)[..., None]
+    low = np.stack([ndi.minimum_filter(background.image[..., c], size=3) for c in range(3)], axis=-1) - tolerance
+    high = np.stack([ndi.maximum_filter(background.image[..., c], size=3) for c in range(3)], axis=-1) + tolerance
+    relative_noise = background.noise / np.maximum(background.image.mean(axis=-1), 1.0)
+    chroma_limit = CHROMA_OBJECT + NOISE_MULTIPLE * relative_noise
+    return FloorRange(np.floor(low).astype(np.int16), np.ceil(high).astype(np.int16), chroma_limit.astype(np.float32))
+
+
+def classify_pixels(frame: np.ndarray, background: Background, bounds: FloorRange | None = None) -> np.ndarray:
+    """(H, W) uint8 labels FLOOR / AMBIGUOUS / OBJECT for one (H, W, 3) uint8 frame; only pixels
+    outside their floor range are examined (bounds: floor_range(background), once per video)."""
+    bounds = floor_range(background) if bounds is None else bounds
+    candidate = np.zeros(frame.shape[:2], dtype=bool)
+    for channel in range(3):  # per channel: avoids a large (H, W, 3) temporary
+        value = frame[..., channel].astype(np.int16)
+        candidate |= (value < bounds.low[..., channel]) | (value > bounds.high[..., channel])
+    labels = np.zeros(frame.shape[:2], dtype=np.uint8)
+    ys, xs = np.nonzero(candidate)
+    if ys.size == 0:
+        return labels
+    ratio = frame[ys, xs].astype(np.float32) / np.maximum(background.image[ys, xs], 1.0)
+    mean = ratio.mean(axis=1)
+    chroma = np.abs(ratio - mean[:, None]).max(axis=1) / np.maximum(mean, 0.05)
+    limit = bounds.chroma_limit[ys, xs]
+    label = np.full(ys.shape, AMBIGUOUS, dtype=np.uint8)
+    label[(mean >= FLOOR_RATIO) & (chroma < limit)] = FLOOR
+    label[(chroma >= limit) | (mean < DARK_OBJECT) | (mean > BRIGHT_OBJECT)] = OBJECT
+    labels[ys, xs] = label
     return labels

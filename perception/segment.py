@@ -14,17 +14,7 @@ import numpy as np
 from scipy import ndimage as ndi
 from tqdm import tqdm
 
-from perception.background import (
-    AMBIGUOUS,
-    BRIGHT_OBJECT,
-    CHROMA_OBJECT,
-    DARK_OBJECT,
-    FLOOR,
-    FLOOR_RATIO,
-    OBJECT,
-    Background,
-    estimate_background,
-)
+from perception.background import OBJECT, Background, FloorRange, classify_pixels, estimate_background, floor_range
 from perception.geometry import primitive_window, ray_depths, window_rays
 from perception.lift import fit_primitive, initial_centre
 from perception.types import NEUTRAL, Detection, FrameSegments
@@ -37,7 +27,6 @@ _PROTOTYPE_LABELS = np.array([COLORS.index(c) for c in CHROMATIC])
 _PROTOTYPES = _PROTOTYPES.astype(np.float32)
 _PROTOTYPE_NORMS = (_PROTOTYPES ** 2).sum(axis=1)
 
-CANDIDATE_DIFFERENCE = 8  # grey levels: pixels closer than this to the background are floor
 MIN_SATURATION = 0.28  # (max - min) / max below which a pixel has no reliable hue
 MIN_BRIGHTNESS = 28.0  # max channel below which a pixel's hue is noise
 NEUTRAL_REACH = 3  # px: hue-less pixels this close to a coloured segment belong to it
@@ -58,34 +47,16 @@ def pixel_hue_labels(rgb: np.ndarray) -> np.ndarray:
     return labels
 
 
-def classify_frame(frame: np.ndarray, background: Background, reference: np.ndarray | None = None) -> np.ndarray:
-    """(H, W) uint8 FLOOR / AMBIGUOUS / OBJECT labels; only pixels that differ from the background are examined.
-
-    reference: (H, W, 3) int16 background image (background.image.astype(int16)), converted once per video by the caller.
-    """
-    reference = background.image.astype(np.int16) if reference is None else reference
-    candidate = np.zeros(frame.shape[:2], dtype=bool)
-    for channel in range(3):  # per channel: avoids a large (H, W, 3) temporary
-        difference = frame[..., channel].astype(np.int16) - reference[..., channel]
-        candidate |= (difference >= CANDIDATE_DIFFERENCE) | (difference <= -CANDIDATE_DIFFERENCE)
-    labels = np.zeros(frame.shape[:2], dtype=np.uint8)
-    ys, xs = np.nonzero(candidate)
-    if ys.size == 0:
-        return labels
-    ratio = frame[ys, xs].astype(np.float32) / np.maximum(background.image[ys, xs], 1.0)
-    mean = ratio.mean(axis=1)
-    chroma = np.abs(ratio - mean[:, None]).max(axis=1) / np.maximum(mean, 0.05)
-    label = np.full(ys.shape, AMBIGUOUS, dtype=np.uint8)
-    label[(mean >= FLOOR_RATIO) & (chroma < CHROMA_OBJECT)] = FLOOR
-    label[(chroma >= CHROMA_OBJECT) | (mean < DARK_OBJECT) | (mean > BRIGHT_OBJECT)] = OBJECT
-    labels[ys, xs] = label
-    return labels
+def classify_frame(frame: np.ndarray, background: Background, bounds: FloorRange | None = None) -> np.ndarray:
+    """(H, W) uint8 FLOOR / AMBIGUOUS / OBJECT labels (background.classify_pixels; bounds: its floor range,
+    computed once per video by the caller)."""
+    return classify_pixels(frame, background, bounds)
 
 
 def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 0,
-                  reference: np.ndarray | None = None) -> FrameSegments:
-    """Segments of one (H, W, 3) uint8 frame (reference: as classify_frame)."""
-    labels = classify_frame(frame, background, reference)
+                  bounds: FloorRange | None = None) -> FrameSegments:
+    """Segments of one (H, W, 3) uint8 frame (bounds: as classify_frame)."""
+    labels = classify_frame(frame, background, bounds)
     height, width = labels.shape
     components, count = ndi.label(labels == OBJECT)
     detections: list[Detection] = []
@@ -273,8 +244,8 @@ class ClassicalSegmenter:
         iterator = range(frames.shape[0])
         if progress:
             iterator = tqdm(iterator, desc="segment", unit="frame")
-        reference = background.image.astype(np.int16)  # once per video, not per frame
-        segments = [segment_frame(frames[f], background, f, reference) for f in iterator]
+        bounds = floor_range(background)  # once per video, not per frame
+        segments = [segment_frame(frames[f], background, f, bounds) for f in iterator]
         if self.camera is None:
             return segments
         decisions: dict = {}

@@ -89,16 +89,19 @@ class PrimitiveLifter:
     def __init__(self, object_size: float = DEFAULT_OBJECT_SIZE) -> None:
         self.size = object_size
 
+    def shape_fits(self, camera: Camera, detection: Detection, labels: np.ndarray) -> dict[str, Fit]:
+        """Per primitive kind, its best fit to one detection (labels: the frame's (H, W) pixel labels)."""
+        start = initial_centre(camera, detection, self.size)
+        return {"sphere": fit_primitive(camera, "sphere", start, self.size, 0.0, labels, detection),
+                "cylinder": fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, detection),
+                "cube": fit_cube(camera, start, self.size, labels, detection)}
+
     def shape_scores(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> dict[str, list[float]]:
         """Per primitive kind, the silhouette overlap J of its best fit on each of ``frames_used``."""
         scores = {kind: [] for kind in SHAPE_KINDS}
         for frame in frames_used:
-            det = track.detections[frame]
-            labels = segments[frame].labels
-            start = initial_centre(camera, det, self.size)
-            scores["sphere"].append(fit_primitive(camera, "sphere", start, self.size, 0.0, labels, det).score)
-            scores["cylinder"].append(fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, det).score)
-            scores["cube"].append(fit_cube(camera, start, self.size, labels, det).score)
+            for kind, fit in self.shape_fits(camera, track.detections[frame], segments[frame].labels).items():
+                scores[kind].append(fit.score)
         return scores
 
     def decide_shape(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> tuple[str, float, float]:

@@ -49,7 +49,7 @@ def load_set(name: str, cache: Path) -> list[dict]:
                 continue
             shape, _, _ = rank_shapes(track["shape_scores"])
             rows.append({"set": name, "scene": f"{name}/{scene['scene']}", "color": color_of_votes(track["color_votes"]), "shape": shape,
-                         **{k: track[k] for k in ("truth", "windows", "frames", "isolated", "shape_scores", "color_votes")}})
+                         **{k: v for k, v in track.items() if k != "track"}})
     return rows
 
 

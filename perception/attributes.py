@@ -21,14 +21,18 @@ from __future__ import annotations
 
 import numpy as np
 
+from perception.background import AMBIGUOUS, FLOOR
+from perception.geometry import silhouette
+from perception.lift import Fit
 from perception.material_model import appearance_windows, metal_probability
 from perception.segment import pixel_hue_labels
 from perception.types import NEUTRAL, Detection, FrameSegments
-from world.types import COLORS, MATERIALS, SHAPE_KINDS
+from world.types import COLORS, MATERIALS, SHAPE_KINDS, Camera
 
 # Temperatures of the attribute probabilities, fitted by minimum log loss on the tune looks only
 # (physmind synth --looks tune --seed 7101, 24 scenes, 122 tracks matched to an object; docs/perception.md,
 # "Attribute beliefs"). Mean log loss of the true value: colour 0.119, shape 0.248, material 0.155.
+AMBIGUOUS_WEIGHT = 0.25  # shadow-like silhouette pixels count against a primitive's shape like floor pixels (shape_overlap)
 COLOR_TEMPERATURE = 0.16  # on pixel shares in [0, 1]
 SHAPE_TEMPERATURE = 0.041  # on mean silhouette overlaps in [0, 1]
 
@@ -65,6 +69,26 @@ def material_of(detections: list[Detection], frames: np.ndarray, segments: list[
     return ("metal" if probability > 0.5 else "rubber"), probability
 
 
+def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: Detection, labels: np.ndarray) -> float:
+    """J_shape = |S & D| / (|D| + |S & floor| + AMBIGUOUS_WEIGHT |S & ambiguous|) of the primitive's silhouette S
+    at its fitted pose and the detection D (labels: the frame's (H, W) pixel labels), in [0, 1].
+
+    The fit's own overlap counts shadow-like (ambiguous) pixels neither for nor against, which is right
+    for placing a primitive (a grey rubber object is only half certain) but lets a larger primitive win
+    the shape decision for free wherever the object stands in its own soft shadow (POV-Ray's area
+    lights: cylinders and spheres read as cubes, docs/benchmarks.md "Material across renderers")."""
+    window, sil = silhouette(camera, kind, fit.centre, size, fit.yaw)
+    if window.empty:
+        return 0.0
+    region = labels[window.top:window.bottom, window.left:window.right]
+    ys, xs = detection.ys - window.top, detection.xs - window.left
+    inside = (ys >= 0) & (ys < sil.shape[0]) & (xs >= 0) & (xs < sil.shape[1])
+    hits = float(sil[ys[inside], xs[inside]].sum())
+    floor = float((sil & (region == FLOOR)).sum())
+    ambiguous = float((sil & (region == AMBIGUOUS)).sum())
+    return hits / (detection.area + floor + AMBIGUOUS_WEIGHT * ambiguous)
+
+
 def _softmax(scores: np.ndarray, temperature: float) -> np.ndarray:
     z = scores / temperature
     weights = np.exp(z - z.max())
@@ -94,4 +118,4 @@ def material_probabilities(metal_probability: float, temperature: float = 1.0) -
     return {name: (metal if name == "metal" else 1.0 - metal) for name in MATERIALS}
 
 
-__all__ = ["color_of", "color_of_votes", "color_votes", "color_probabilities", "shape_probabilities", "material_probabilities", "material_of", "NEUTRAL"]
+__all__ = ["color_of", "color_of_votes", "color_votes", "color_probabilities", "shape_probabilities", "material_probabilities", "material_of", "shape_overlap", "NEUTRAL"]

@@ -17,7 +17,8 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from tqdm import tqdm
 
-from perception.attributes import color_of, color_probabilities, color_votes, material_of, material_probabilities, shape_probabilities
+from perception.attributes import (color_of, color_probabilities, color_votes, material_of, material_probabilities, shape_overlap,
+                                   shape_probabilities)
 from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
 from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, pixel_hue_labels
@@ -97,11 +98,12 @@ class PrimitiveLifter:
                 "cube": fit_cube(camera, start, self.size, labels, detection)}
 
     def shape_scores(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> dict[str, list[float]]:
-        """Per primitive kind, the silhouette overlap J of its best fit on each of ``frames_used``."""
+        """Per primitive kind, the shape overlap (attributes.shape_overlap) of its best fit on each of ``frames_used``."""
         scores = {kind: [] for kind in SHAPE_KINDS}
         for frame in frames_used:
-            for kind, fit in self.shape_fits(camera, track.detections[frame], segments[frame].labels).items():
-                scores[kind].append(fit.score)
+            det, labels = track.detections[frame], segments[frame].labels
+            for kind, fit in self.shape_fits(camera, det, labels).items():
+                scores[kind].append(shape_overlap(camera, kind, fit, self.size, det, labels))
         return scores
 
     def decide_shape(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> tuple[str, float, float]:

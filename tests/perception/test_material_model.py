@@ -89,7 +89,9 @@ def test_features_follow_the_floor_illumination_not_absolute_brightness(light):
     for body, highlight in ((1.0, 0.0), (0.7, 90.0)):
         reference = track_features([_disc("green", body, highlight)], "green")
         scaled = track_features([_disc("green", body, highlight, light=light)], "green")
-        assert scaled == pytest.approx(reference, abs=0.06), dict(zip(TRACK_FEATURES, np.round(scaled - reference, 3)))
+        # without a highlight the peak sits at its floor of 1 grey level, which does not scale
+        compared = [k for k, name in enumerate(TRACK_FEATURES) if highlight or name != "peak"]
+        assert scaled[compared] == pytest.approx(reference[compared], abs=0.06), dict(zip(TRACK_FEATURES, np.round(scaled - reference, 3)))
 
 
 def test_no_floor_around_the_object_gives_an_even_probability():

@@ -30,7 +30,7 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from sklearn.linear_model import LogisticRegression
 
-from perception.attributes import COLOR_TEMPERATURE, SHAPE_TEMPERATURE, color_of_votes, color_probabilities, shape_probabilities
+from perception.attributes import AMBIGUOUS_WEIGHT, COLOR_TEMPERATURE, SHAPE_TEMPERATURE, color_of_votes, color_probabilities, shape_probabilities
 from perception.material_model import MODEL_PATH, TRACK_FEATURES, MaterialModel, metal_probability, track_features
 from perception.pipeline import mean_overlaps, rank_shapes
 from world.types import SHAPE_KINDS
@@ -170,6 +170,16 @@ def diagnose(rows: list[dict]) -> None:
         print("\n".join(misses))
 
 
+def recorded_shape_overlaps(row: dict) -> dict[str, float]:
+    """Mean shape overlap per kind (perception.attributes.shape_overlap at the shipped AMBIGUOUS_WEIGHT) from the
+    silhouette counts bench.attribute_samples recorded; the recorded fit overlaps where a kind has no counts."""
+    counts = row.get("shape_counts") or {}
+    if not all(counts.get(kind) for kind in SHAPE_KINDS):
+        return mean_overlaps(row["shape_scores"])
+    return {kind: float(np.mean([hits / (area + floor + AMBIGUOUS_WEIGHT * ambiguous) for hits, floor, ambiguous, _, area in counts[kind]]))
+            for kind in SHAPE_KINDS}
+
+
 def calibrate(rows: list[dict]) -> None:
     """Colour and shape temperatures at minimum mean log loss of the true value over all rows, and per set
     the accuracy and log loss at the fitted and the shipped temperatures."""
@@ -180,7 +190,7 @@ def calibrate(rows: list[dict]) -> None:
         return color_probabilities(r["color_votes"], temperature)[r["truth"]["color"]]
 
     def shape(r, temperature):
-        return shape_probabilities(mean_overlaps(r["shape_scores"]), temperature)[r["truth"]["shape"]]
+        return shape_probabilities(recorded_shape_overlaps(r), temperature)[r["truth"]["shape"]]
 
     sets = sorted(set(r["set"] for r in rows))
     for label, probability_of, shipped in (("colour", colour, COLOR_TEMPERATURE), ("shape", shape, SHAPE_TEMPERATURE)):

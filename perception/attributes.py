@@ -29,12 +29,13 @@ from perception.segment import pixel_hue_labels
 from perception.types import NEUTRAL, Detection, FrameSegments
 from world.types import COLORS, MATERIALS, SHAPE_KINDS, Camera
 
-# Temperatures of the attribute probabilities, fitted by minimum log loss on the tune looks only
-# (physmind synth --looks tune --seed 7101, 24 scenes, 122 tracks matched to an object; docs/perception.md,
-# "Attribute beliefs"). Mean log loss of the true value: colour 0.119, shape 0.248, material 0.155.
-AMBIGUOUS_WEIGHT = 0.25  # shadow-like silhouette pixels count against a primitive's shape like floor pixels (shape_overlap)
+# Temperatures of the attribute probabilities, at minimum mean log loss of the true value over the training sets of
+# the material model (MuJoCo tune looks seed 7101 scenes 0-19 and POV-Ray dev seed 7505 scenes 0-11, 206 tracklets
+# matched to an object; `python -m bench.train_attributes calibrate`, docs/perception.md "Attribute beliefs").
+# Colour: fitted 0.154 on both renderers, the tune-only 0.16 kept (log loss 0.154 tune, 0.290 POV-Ray dev).
+AMBIGUOUS_WEIGHT = 0.25  # shadow-like silhouette pixels count this much against a primitive's shape (shape_overlap)
 COLOR_TEMPERATURE = 0.16  # on pixel shares in [0, 1]
-SHAPE_TEMPERATURE = 0.041  # on mean silhouette overlaps in [0, 1]
+SHAPE_TEMPERATURE = 0.049  # on mean shape overlaps in [0, 1] (shape_overlap; log loss 0.285 tune, 0.545 POV-Ray dev)
 
 
 def color_votes(detections: list[Detection], frames: np.ndarray) -> np.ndarray:

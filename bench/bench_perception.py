@@ -250,6 +250,11 @@ def main(argv: list[str] | None = None) -> int:
     for key, target in (("color", 0.98), ("shape", 0.95), ("material", 0.90)):
         hits = [h for r in results for h in r["attributes"][key]]
         print(f"| {key} accuracy | {np.mean(hits):.4f} ({sum(hits)}/{len(hits)}) | >= {target} |")
+    features = [f for r in results for f in r["attributes"].get("features", [])]
+    if features:  # (true shape, true material, decided shape, P(metal), shape score) per matched track
+        truth_metal = np.array([f[1] == "metal" for f in features])
+        p_metal = np.clip(np.array([f[3] for f in features], dtype=float), 1e-6, 1 - 1e-6)
+        print(f"| material log loss of P(metal) (matched tracks) | {float(np.mean(-np.log(np.where(truth_metal, p_metal, 1 - p_metal)))):.3f} | |")
     events = np.concatenate([r["event_errors"] for r in results if r["event_errors"]] or [np.zeros(0)])
     if events.size:
         print(f"| entry/exit frame error: within 2 frames / median / max | {np.mean(events <= 2):.3f} ({int(np.sum(events <= 2))}/{events.size}) "

@@ -17,7 +17,8 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from tqdm import tqdm
 
-from perception.attributes import color_of, color_probabilities, color_votes, material_of, material_probabilities, shape_probabilities
+from perception.attributes import (color_of, color_probabilities, color_votes, material_of, material_probabilities, shape_overlap,
+                                   shape_probabilities)
 from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
 from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, pixel_hue_labels
@@ -89,16 +90,20 @@ class PrimitiveLifter:
     def __init__(self, object_size: float = DEFAULT_OBJECT_SIZE) -> None:
         self.size = object_size
 
+    def shape_fits(self, camera: Camera, detection: Detection, labels: np.ndarray) -> dict[str, Fit]:
+        """Per primitive kind, its best fit to one detection (labels: the frame's (H, W) pixel labels)."""
+        start = initial_centre(camera, detection, self.size)
+        return {"sphere": fit_primitive(camera, "sphere", start, self.size, 0.0, labels, detection),
+                "cylinder": fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, detection),
+                "cube": fit_cube(camera, start, self.size, labels, detection)}
+
     def shape_scores(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> dict[str, list[float]]:
-        """Per primitive kind, the silhouette overlap J of its best fit on each of ``frames_used``."""
+        """Per primitive kind, the shape overlap (attributes.shape_overlap) of its best fit on each of ``frames_used``."""
         scores = {kind: [] for kind in SHAPE_KINDS}
         for frame in frames_used:
-            det = track.detections[frame]
-            labels = segments[frame].labels
-            start = initial_centre(camera, det, self.size)
-            scores["sphere"].append(fit_primitive(camera, "sphere", start, self.size, 0.0, labels, det).score)
-            scores["cylinder"].append(fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, det).score)
-            scores["cube"].append(fit_cube(camera, start, self.size, labels, det).score)
+            det, labels = track.detections[frame], segments[frame].labels
+            for kind, fit in self.shape_fits(camera, det, labels).items():
+                scores[kind].append(shape_overlap(camera, kind, fit, self.size, det, labels))
         return scores
 
     def decide_shape(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> tuple[str, float, float]:

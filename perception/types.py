@@ -75,29 +75,6 @@ class TrackState:
 
 
 @dataclass(frozen=True)
-class MaterialCues:
-    """Material evidence of a track (perception.attributes.material_cues), medians over ``frames`` frames.
-
-    specular: white light added on top of the paint, over the floor's lit brightness (>= 0);
-    desaturation: body min/max channel ratio minus the paint's; log_body: log(body brightness
-    over floor brightness x paint's max channel); peak: log(brightest white light over the body's
-    own lit level), which needs no floor.
-    """
-
-    specular: float
-    desaturation: float
-    log_body: float
-    peak: float
-    frames: int
-
-    def __post_init__(self):
-        if self.frames < 0:
-            raise ValueError(f"frames: expected >= 0, got {self.frames!r}")
-        if not all(np.isfinite(v) for v in (self.specular, self.desaturation, self.log_body, self.peak)):
-            raise ValueError("specular, desaturation, log_body, peak: expected finite values")
-
-
-@dataclass(frozen=True)
 class Attributes:
     """A track's decided attributes and, per attribute, a probability for each value
     (perception.attributes.*_probabilities; empty: not computed)."""
@@ -106,7 +83,7 @@ class Attributes:
     shape: str
     material: str
     confidence: float  # 0..1, how clearly the best shape beat the others
-    metal_probability: float = 0.5  # P(metal) of the material rule (perception.attributes.metal_probability)
+    metal_probability: float = 0.5  # P(metal) of the material model (perception.material_model.metal_probability)
     shape_score: float = 0.0  # mean silhouette overlap J of the chosen shape on isolated frames
     color_probabilities: Mapping[str, float] = field(default_factory=dict)  # COLORS name -> p
     shape_probabilities: Mapping[str, float] = field(default_factory=dict)  # SHAPE_KINDS name -> p

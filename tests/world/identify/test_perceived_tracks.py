@@ -1,4 +1,4 @@
-"""Candidate collisions from perceived-like tracks: MuJoCo truth, perception's noise and gaps.
+"""Identification from perceived-like tracks: MuJoCo truth, perception's noise, gaps and far-off frames.
 
 Perceived tracks differ from oracle ones in two ways that matter at a contact:
 positions carry centimetre noise, and perception often loses one of two
@@ -61,3 +61,19 @@ def test_two_noisy_tracks_that_pass_apart_make_no_collision(seed):
     assert not [e for e in result.events if e.kind == "collision"]
     observations = _perceived(result, (0, 1), ("sphere", "cube"), seed, {})
     assert not find_candidate_collisions(observations)
+
+
+def test_a_few_far_off_perceived_frames_do_not_drag_a_slide_fit():
+    # A cube sliding alone in MuJoCo; 6 consecutive frames 25 cm off (a merged segment, a misread shape),
+    # the rest with perception's noise. The fitted start velocity stays with the MuJoCo one.
+    from world.identify.local_fit import fit_slide
+
+    spec = SceneSpec(0, CAMERA, (_spec(0, "cube", (-1.5, 0.0), (1.8, 0.6), 50.0),), observed_frames=40, future_frames=0)
+    result = simulate(spec)
+    rng = np.random.default_rng(3)
+    xy = result.positions[:, 0, :2] + rng.normal(0.0, NOISE_M / 2, (40, 2))
+    xy[20:26] += np.array([0.0, -0.25])
+    times = np.arange(40) / FPS
+    fit = fit_slide(times[1:], xy[1:], np.full(39, 0.6), 9.81, 0.3)
+    true_velocity = result.velocities[1, 0, :2]
+    assert np.linalg.norm(fit.velocity - true_velocity) < 0.05, f"fitted {fit.velocity}, MuJoCo {true_velocity}"

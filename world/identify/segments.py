@@ -39,6 +39,11 @@ MAX_BRIDGED_GAP = 3
 # collided, even when neither track alone shows a clear change point (noisy
 # perceived tracks, a light hit on a heavy partner).
 MIN_APPROACH_SPEED = 0.1
+# Rigid bodies do not interpenetrate: two tracks whose centres come closer
+# than their footprints' inscribed radii allow, by more than this (m, about
+# the worst perceived error at a contact), are one object tracked twice (a
+# fragment track of perception), never a contact.
+INTERPENETRATION_TOLERANCE = 0.15
 
 
 @dataclass(frozen=True)
@@ -155,6 +160,20 @@ def contact_radius(track: ObjectTrack) -> float:
     return track.shape.bounding_radius
 
 
+def _inscribed_radius(track: ObjectTrack) -> float:
+    """Radius (m) of the largest circle about the centre inside the footprint."""
+    return track.shape.half_extent if track.shape.kind == "cube" else track.shape.radius
+
+
+def _one_object_twice(track: ObjectTrack, other: ObjectTrack, frame: int) -> bool:
+    """True when the two centres at ``frame`` are closer than two rigid bodies can be (see INTERPENETRATION_TOLERANCE)."""
+    here, there = _position_at(track, frame), _position_at(other, frame)
+    if here is None or there is None:
+        return False
+    reach = _inscribed_radius(track) + _inscribed_radius(other) - INTERPENETRATION_TOLERANCE
+    return float(np.hypot(*(there - here))) < reach
+
+
 def _gap(track: ObjectTrack, other: ObjectTrack, frame: int) -> float:
     """Smallest gap (m) between the two bounding circles within +-2 frames of ``frame``; inf if unseen.
 
@@ -212,6 +231,8 @@ def approach_events(first: ObjectTrack, second: ObjectTrack, fps: float) -> list
     touching = gaps <= CONTACT_MARGIN
     for episode in _runs(span[touching], max_gap=0):
         frame = int(episode[np.argmin(gaps[np.isin(span, episode)])])
+        if _one_object_twice(first, second, frame):
+            continue
         here, there = centres[frame]
         normal = (there - here) / max(float(np.hypot(*(there - here))), 1e-9)
         sides = []
@@ -251,6 +272,7 @@ def find_candidate_collisions(
                 other_id: gap
                 for other_id, other in tracks.items()
                 if other_id != body and (gap := _gap(track, other, frame)) <= CONTACT_MARGIN
+                and not _one_object_twice(track, other, frame)
             }
             # Partners that felt the impulse too (a change point of their
             # own) are the collision; if none did (a much heavier partner

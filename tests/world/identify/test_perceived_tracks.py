@@ -77,3 +77,19 @@ def test_a_few_far_off_perceived_frames_do_not_drag_a_slide_fit():
     fit = fit_slide(times[1:], xy[1:], np.full(39, 0.6), 9.81, 0.3)
     true_velocity = result.velocities[1, 0, :2]
     assert np.linalg.norm(fit.velocity - true_velocity) < 0.05, f"fitted {fit.velocity}, MuJoCo {true_velocity}"
+
+
+def test_a_fragment_track_of_the_same_object_is_no_collision_partner():
+    # Perception sometimes tracks one object twice (a piece of it as a second track, a few cm off).
+    # The light hit above is found with the cube, never with the sphere's own fragment.
+    spec = SceneSpec(0, CAMERA, (_spec(0, "sphere", (-1.2, 0.3), (2.0, 0.0), 20.0), _spec(1, "cube", (0.0, 0.3), (0.0, 0.0), 200.0)),
+                     observed_frames=50, future_frames=0)
+    result = simulate(spec)
+    observations = _perceived(result, (0, 1), ("sphere", "cube"), 0, {})
+    sphere = observations.object(0)
+    fragment = ObjectTrack(2, sphere.shape, sphere.frames, sphere.positions + np.array([0.06, 0.04, 0.0]), sphere.yaw,
+                           sphere.visible, sphere.weights * 0.5)
+    with_fragment = Observations((*observations.objects, fragment), FPS, observations.num_frames, None)
+    pairs = {c.bodies for c in find_candidate_collisions(with_fragment)}
+    assert (0, 1) in pairs
+    assert (0, 2) not in pairs

@@ -29,7 +29,7 @@ from threadpoolctl import threadpool_limits
 
 from world.contacts import footprint_distance
 from world.identify.jacobian import SecantJacobian
-from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide
+from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, robust_residuals
 from world.identify.segments import CandidateCollision, find_candidate_collisions
 from world.observations import ObjectTrack, Observations
 from world.rollout import footprint_of, simulate
@@ -425,7 +425,7 @@ def _positions(
 def _residuals(
     world: World, tracks: Sequence[ObjectTrack], horizon_frames: int, simulator: Callable[..., object] | None = None
 ) -> np.ndarray:
-    """Weighted position residuals (metres) of every observed frame < horizon.
+    """Weighted position residuals (metres; Huber-scaled beyond local_fit.ROBUST_SCALE) of every observed frame < horizon.
 
     Frames where the simulated body is not active count with the observed
     position against the body's entry position (keeps the vector length fixed).
@@ -439,7 +439,8 @@ def _residuals(
         simulated = positions[frames, column[track.id]]
         simulated = np.where(active[frames, column[track.id]][:, None], simulated, world.body(track.id).initial.position[:2])
         parts.append(((simulated - track.positions[use, :2]) * np.sqrt(track.weights[use])[:, None]).ravel())
-    return np.concatenate(parts) if parts else np.zeros(0)
+    # Huber, not squares: a few far-off perceived frames must not drag the whole fit (local_fit.robust_residuals).
+    return robust_residuals(np.concatenate(parts)) if parts else np.zeros(0)
 
 
 # --------------------------------------------------------------------------

@@ -21,6 +21,23 @@ REST_RMSE = 0.004
 # Friction needs a deceleration seen over a real stretch: 8 frames at 25 fps
 # (0.3 s) slow a body at mu = 0.05 by only 0.15 m/s.
 MIN_FRICTION_SAMPLES = 8
+# Weighted position residuals (m) beyond this count linearly, not squared
+# (Huber): a perceived track has a few frames tens of centimetres off (a
+# merged segment, a misread shape at the border) that must not drag a fit
+# made from many good frames; exact tracks (residuals of millimetres) are
+# fitted as with plain least squares.
+ROBUST_SCALE = 0.03
+
+
+def robust_residuals(residuals: np.ndarray, scale: float = ROBUST_SCALE) -> np.ndarray:
+    """Residuals (any shape, m) whose squares sum to twice the Huber loss of the input.
+
+    Unchanged within ``scale``; beyond it sign(r) sqrt(2 scale |r| - scale^2),
+    so any least-squares solver (and its Jacobian) minimises the Huber loss
+    without knowing it.
+    """
+    size = np.abs(residuals)
+    return np.where(size <= scale, residuals, np.sign(residuals) * np.sqrt(np.maximum(2.0 * scale * size - scale**2, 0.0)))
 
 
 @dataclass(frozen=True)
@@ -108,7 +125,7 @@ def fit_slide(
     def residuals(params: np.ndarray) -> np.ndarray:
         position, velocity, log_mu = params[:2], params[2:4], params[4]
         predicted = slide_positions(t, start_time, position, velocity, float(np.exp(log_mu)), gravity)
-        return ((predicted - p) * w[:, None]).ravel()
+        return robust_residuals(((predicted - p) * w[:, None]).ravel())
 
     best = None
     # Two starts: the prior friction, and a guess that would stop the body
@@ -133,7 +150,8 @@ def fit_slide(
     identified = t.shape[0] >= MIN_FRICTION_SAMPLES and (
         stop_time <= duration * 1.05 or (mu * gravity * duration) > 0.1 * speed
     )
-    rmse = float(np.sqrt(2.0 * best.cost / max(np.sum(w**2), 1e-12)))
+    plain = (slide_positions(t, start_time, position, velocity, mu, gravity) - p) * w[:, None]
+    rmse = float(np.sqrt(np.sum(plain**2) / max(np.sum(w**2), 1e-12)))
     # A moving model must explain clearly more than standing still does.
     if rest_rmse < 1.5 * rmse:
         return rest

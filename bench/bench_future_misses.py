@@ -39,7 +39,7 @@ import numpy as np
 from bench.bench_identify import STILL_MOVING_SPEED
 from bench.metrics import EVENT_TOLERANCE_FRAMES, GroundTruth, rollout_collisions
 from bench.runner import run_with_progress
-from world.identify.fit import FitConfig, identify
+from world.identify.fit import identify
 from world.io import world_from_dict, world_to_dict
 from world.observations import Observations
 from world.rollout import simulate

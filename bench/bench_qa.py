@@ -30,11 +30,11 @@ REPO = Path(__file__).resolve().parents[1]
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))
 
+from physmind.local_server import local_server  # noqa: E402
 from physmind.pipeline import build_worlds  # noqa: E402
 from planner.client import ToolClient  # noqa: E402
 from planner.evaluate import QUESTION_TYPES, Tally, evaluate, format_table, load_dataset  # noqa: E402
 from planner.executor import ExecutorConfig  # noqa: E402
-from physmind.local_server import local_server  # noqa: E402
 
 
 def random_row(entries) -> dict[str, Tally]:

@@ -25,7 +25,6 @@ from synth.annotate import annotation_document, ground_truth_document
 from synth.generate import _dump, questions_entry, sample_accepted_scene, write_questions
 from synth.simulate import simulate
 
-
 FUTURE_SECONDS = 3.0  # s after the last observed frame
 
 

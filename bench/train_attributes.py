@@ -30,7 +30,14 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 from sklearn.linear_model import LogisticRegression
 
-from perception.attributes import AMBIGUOUS_WEIGHT, COLOR_TEMPERATURE, SHAPE_TEMPERATURE, color_of_votes, color_probabilities, shape_probabilities
+from perception.attributes import (
+    AMBIGUOUS_WEIGHT,
+    COLOR_TEMPERATURE,
+    SHAPE_TEMPERATURE,
+    color_of_votes,
+    color_probabilities,
+    shape_probabilities,
+)
 from perception.material_model import MODEL_PATH, TRACK_FEATURES, MaterialModel, metal_probability, track_features
 from perception.pipeline import mean_overlaps, rank_shapes
 from world.types import SHAPE_KINDS

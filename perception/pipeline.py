@@ -17,8 +17,15 @@ import numpy as np
 from scipy.optimize import linear_sum_assignment
 from tqdm import tqdm
 
-from perception.attributes import (color_of, color_probabilities, color_votes, material_of, material_probabilities, shape_overlap,
-                                   shape_probabilities)
+from perception.attributes import (
+    color_of,
+    color_probabilities,
+    color_votes,
+    material_of,
+    material_probabilities,
+    shape_overlap,
+    shape_probabilities,
+)
 from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
 from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, pixel_hue_labels

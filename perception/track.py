@@ -17,9 +17,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from world.camera import backproject_to_height
-from world.camera import project
 from perception.types import Detection, FrameSegments, TrackState
+from world.camera import backproject_to_height, project
 from world.observations import DEFAULT_OBJECT_SIZE
 from world.types import Camera
 

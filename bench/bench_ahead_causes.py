@@ -33,7 +33,7 @@ import numpy as np
 from bench.bench_identify import AHEAD_SECONDS, STILL_MOVING_SPEED
 from bench.metrics import match_events, rollout_collisions
 from bench.oracle_dataset import FUTURE_SECONDS
-from bench.runner import run_with_progress
+from bench.runner import dataset_annotations, print_and_save, run_with_progress
 from synth.generate import sample_accepted_scene
 from synth.simulate import simulate as mujoco_simulate
 from world.identify.fit import FitConfig, identify
@@ -135,15 +135,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--rolling-spheres", action="store_true", help="fit with FitConfig(rolling_spheres=True)")
     parser.add_argument("--json", type=Path, default=None, help="write the per-object rows here")
     args = parser.parse_args(argv)
-    annotations = sorted((args.dataset / "annotations").glob("annotation_*.json"))[: args.scenes]
-    if not annotations:
-        raise SystemExit(f"no annotations under {args.dataset / 'annotations'}")
+    annotations = dataset_annotations(args.dataset, args.scenes)
     tasks = [(a, args.seed, args.worlds, args.save_worlds, args.rolling_spheres) for a in annotations]
     rows = [row for scene_rows in run_with_progress(_safe, tasks, args.workers, "scenes") for row in scene_rows]
-    for line in table(rows):
-        print(line)
-    if args.json:
-        args.json.write_text(json.dumps(rows, indent=1))
+    print_and_save(table(rows), rows, args.json)
     return 0
 
 

@@ -38,7 +38,7 @@ import numpy as np
 
 from bench.bench_identify import STILL_MOVING_SPEED
 from bench.metrics import EVENT_TOLERANCE_FRAMES, GroundTruth, rollout_collisions
-from bench.runner import run_with_progress
+from bench.runner import dataset_annotations, print_and_save, run_with_progress
 from world.identify.fit import identify
 from world.io import world_from_dict, world_to_dict
 from world.observations import Observations
@@ -170,15 +170,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--save-worlds", type=Path, default=None, help="write the fitted worlds here")
     parser.add_argument("--json", type=Path, default=None, help="write every miss / invention here")
     args = parser.parse_args(argv)
-    annotations = sorted((args.dataset / "annotations").glob("annotation_*.json"))[: args.scenes]
-    if not annotations:
-        raise SystemExit(f"no annotations under {args.dataset / 'annotations'}")
+    annotations = dataset_annotations(args.dataset, args.scenes)
     tasks = [(a, args.worlds, args.save_worlds) for a in annotations]
     rows = [row for scene_rows in run_with_progress(_safe, tasks, args.workers, "scenes") for row in scene_rows]
-    for line in table(rows):
-        print(line)
-    if args.json:
-        args.json.write_text(json.dumps(rows, indent=1))
+    print_and_save(table(rows), rows, args.json)
     return 0
 
 

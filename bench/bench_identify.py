@@ -51,7 +51,7 @@ import numpy as np
 
 from bench.fixed_step import simulate_fixed_step
 from bench.metrics import GroundTruth, PrecisionRecall, match_events, rollout_collisions, score_world
-from bench.runner import run_with_progress
+from bench.runner import dataset_annotations, print_and_save, run_with_progress
 from world.identify.fit import FitConfig, identify
 from world.io import world_from_dict
 from world.observations import Observations
@@ -335,9 +335,7 @@ def main(argv: list[str] | None = None) -> int:
                         help="score the noiseless worlds bench_qa --cache fitted (CACHE/annotation) instead of refitting them")
     args = parser.parse_args(argv)
 
-    annotations = sorted((args.dataset / "annotations").glob("annotation_*.json"))[: args.scenes]
-    if not annotations:
-        raise SystemExit(f"no annotations under {args.dataset / 'annotations'}")
+    annotations = dataset_annotations(args.dataset, args.scenes)
     noises = [float(v) for v in args.noise.split(",")]
     tasks = [(a, noise, "analytic", args.worlds) for noise in noises for a in annotations]
     if args.rolling_spheres:
@@ -354,10 +352,7 @@ def main(argv: list[str] | None = None) -> int:
     began = time.perf_counter()
     rows = run_with_progress(evaluate, tasks, args.workers, "fits")
     print(f"# {args.dataset}: {len(annotations)} scenes, {args.workers} workers, {time.perf_counter() - began:.0f} s")
-    for line in summarise(rows):
-        print(line)
-    if args.json:
-        args.json.write_text(json.dumps(rows, indent=1))
+    print_and_save(summarise(rows), rows, args.json)
     return 0
 
 

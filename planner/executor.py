@@ -432,7 +432,7 @@ class VideoExecutor:
                         bound: list[int] | None) -> tuple[tuple[EventRecord, ...] | None, str | None]:
         """The event list a ``... belong_to [negate]`` question tests its choices against, and a fact naming it
         (bound: the grounded object id of each of the program's references)."""
-        tail = program[:-1] if program and program[-1] == "negate" else program
+        tail = _without_negate(program)
         if not tail or tail[-1] != "belong_to":
             return None, None
         value = execute(list(tail[:-1]), scene, bound=bound)
@@ -601,12 +601,17 @@ def _event_selection(choice_program: tuple[str, ...], scene: ProgramScene,
     return candidates
 
 
+def _without_negate(program: Sequence[str]) -> list[str]:
+    """The program's operators without a trailing ``negate`` (the ``belong_to [negate]`` forms share their body)."""
+    return list(program[:-1]) if program and program[-1] == "negate" else list(program)
+
+
 def _explained_event_candidates(program: Sequence[str], scene: ProgramScene,
                                 bound: list[int] | None = None) -> tuple[EventRecord, ...] | None:
     """For ``events <E> filter_ancestor belong_to [negate]`` with E = ``events ... unique``: the events E
     selects before ``unique`` (None for other programs or when the selection fails; bound: the grounded
     ids of the program's references)."""
-    tail = list(program[:-1]) if program and program[-1] == "negate" else list(program)
+    tail = _without_negate(program)
     if len(tail) < 5 or tail[0] != "events" or tail[-2:] != ["filter_ancestor", "belong_to"] or tail[-3] != "unique" or tail[1] != "events":
         return None
     try:
@@ -620,7 +625,7 @@ def _explained_event_candidates(program: Sequence[str], scene: ProgramScene,
 
 def _explained_event_kind(program: Sequence[str]) -> str | None:
     """"collision" / "in" / "out": the kind of the explained event of ``events <E> filter_ancestor belong_to``."""
-    tail = list(program[:-1]) if program and program[-1] == "negate" else list(program)
+    tail = _without_negate(program)
     if len(tail) < 5 or tail[-2:] != ["filter_ancestor", "belong_to"] or tail[-3] != "unique":
         return None
     return {"filter_collision": "collision", "filter_in": "in", "filter_out": "out"}.get(tail[-4])
@@ -628,7 +633,7 @@ def _explained_event_kind(program: Sequence[str]) -> str | None:
 
 def _counterfactual_form(program: Sequence[str]) -> bool:
     """``OBJ counterfact_events belong_to [negate]``: the generator's counterfactual question."""
-    tail = list(program[:-1]) if program and program[-1] == "negate" else list(program)
+    tail = _without_negate(program)
     return len(tail) >= 3 and tail[-2:] == ["counterfact_events", "belong_to"] and tail[0] == "objects"
 
 

@@ -9,13 +9,16 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from world.contacts import footprint_distance
+from world.contacts import MIN_CA_STEP, footprint_distance
 from world.rollout import MAX_EVENTS, footprint_of, simulate
 from world.types import Body, BodyState, Shape, World
 
 # Interpenetration bound (m) for every sampled frame. Contacts are exact roots
 # (circles) or bisected to 1e-12 s (squares), pushing contacts are settled and
-# impacts act at the contact point (a spinning corner is pushed back), so only rounding remains.
+# impacts act at the contact point (a spinning corner is pushed back), so only rounding remains,
+# except where a spinning pair's contact points separate at a touch: the engine searches that pair
+# again MIN_CA_STEP later, so a corner can sweep in by at most its closing speed x MIN_CA_STEP
+# (docs/engine.md, Limits; a hypothesis case found 22 um).
 PENETRATION_TOL = 1e-6
 FPS = 200.0
 HORIZON = 600  # 3 s
@@ -70,13 +73,15 @@ def test_kinetic_energy_never_increases(world):
 def test_bodies_never_interpenetrate_beyond_the_tolerance(world):
     rollout = simulate(world, horizon_frames=HORIZON)
     footprints = [footprint_of(b) for b in world.bodies]
-    worst = math.inf
+    # (T, N) m/s: the fastest point of each footprint (centre speed + spin x bounding radius)
+    point_speed = (np.linalg.norm(rollout.velocities[:, :, :2], axis=2)
+                   + np.abs(rollout.yaw_rates) * np.array([f.bounding_radius for f in footprints]))
     for a, b in itertools.combinations(range(len(world.bodies)), 2):
+        sweep = MIN_CA_STEP * float(np.max(point_speed[:, a] + point_speed[:, b]))
         for t in range(HORIZON):
             gap, _, _ = footprint_distance(footprints[a], *rollout.positions[t, a, :2], rollout.yaw[t, a],
                                            footprints[b], *rollout.positions[t, b, :2], rollout.yaw[t, b])
-            worst = min(worst, gap)
-    assert worst >= -PENETRATION_TOL
+            assert gap >= -(PENETRATION_TOL + sweep), (a, b, t, gap, sweep)
 
 
 @PROPERTY_SETTINGS

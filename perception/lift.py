@@ -90,7 +90,9 @@ def shift_scores(evidence: np.ndarray, mask: np.ndarray) -> np.ndarray:
     shifts_y, shifts_x = evidence.shape[0] - height + 1, evidence.shape[1] - width + 1
     if shifts_y < 1 or shifts_x < 1:
         raise ValueError(f"shift_scores: evidence {evidence.shape} is smaller than the silhouette {mask.shape}")
-    edges = np.diff(np.pad(mask, ((0, 0), (1, 1))).astype(np.int8), axis=1)  # +1 at a run's first pixel, -1 after its last
+    padded = np.zeros((height, width + 2), dtype=np.int8)  # a column of zeros either side closes every run
+    padded[:, 1:-1] = mask
+    edges = np.diff(padded, axis=1)  # +1 at a run's first pixel, -1 after its last
     run_rows, run_starts = np.nonzero(edges == 1)
     run_ends = np.nonzero(edges == -1)[1]  # row-major order pairs each end with its start
     prefix = np.zeros((evidence.shape[0], evidence.shape[1] + 1))

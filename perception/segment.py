@@ -31,6 +31,7 @@ MIN_SATURATION = 0.28  # (max - min) / max below which a pixel has no reliable h
 MIN_BRIGHTNESS = 28.0  # max channel below which a pixel's hue is noise
 NEUTRAL_REACH = 3  # px: hue-less pixels this close to a coloured segment belong to it
 MIN_SEGMENT_AREA = 60  # px: smaller pieces are noise or anti-aliasing fringes
+FOUR_CONNECTED = ndi.generate_binary_structure(2, 1)  # scipy.ndimage.label's default, built once rather than per call
 
 
 def pixel_hue_labels(rgb: np.ndarray) -> np.ndarray:
@@ -62,7 +63,7 @@ def open_2x2(mask: np.ndarray) -> np.ndarray:
 def fill_holes(mask: np.ndarray) -> np.ndarray:
     """(h, w) bool ``mask`` with its holes filled: the pieces of its complement (4-connected) that do not reach
     the array's border (as scipy.ndimage.binary_fill_holes, by one labelling instead of repeated dilations)."""
-    pieces, count = ndi.label(~mask)
+    pieces, count = ndi.label(~mask, structure=FOUR_CONNECTED)
     if count == 0:
         return mask.copy()
     border = np.concatenate([pieces[0], pieces[-1], pieces[:, 0], pieces[:, -1]])
@@ -83,7 +84,7 @@ def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 
     """Segments of one (H, W, 3) uint8 frame (bounds: as classify_frame)."""
     labels = classify_frame(frame, background, bounds)
     height, width = labels.shape
-    components, count = ndi.label(labels == OBJECT)
+    components, count = ndi.label(labels == OBJECT, structure=FOUR_CONNECTED)
     detections: list[Detection] = []
     if count == 0:
         return FrameSegments(frame_index, labels, ())
@@ -109,7 +110,7 @@ def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 
             hue[near] = hue[iy[near], ix[near]]
             # Minor colours inside a component are noise unless they form a sizeable piece.
         for value in np.flatnonzero(np.bincount((hue[hue >= NEUTRAL] - NEUTRAL).ravel())) + NEUTRAL:  # the labels present, ascending
-            pieces, piece_count = ndi.label(hue == value)
+            pieces, piece_count = ndi.label(hue == value, structure=FOUR_CONNECTED)
             # pixels of every piece from one pass (not one full-window comparison per piece)
             all_y, all_x = np.nonzero(pieces)
             piece_of = pieces[all_y, all_x]

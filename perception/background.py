@@ -77,11 +77,14 @@ class Background:
 
 @dataclass(frozen=True)
 class FloorRange:
-    """Per-video precomputation of the candidate test: a pixel inside [low, high] (per channel, grey
-    levels, int16, (H, W, 3)) is floor; chroma_limit (H, W) float32 is the pixel's chroma threshold."""
+    """Per-video precomputation of the candidate test, as (3, H, W) channel planes (a frame's channel is then
+    compared plane to plane): a pixel inside [low, high] (uint8 grey levels; the range clipped to 0-255,
+    which leaves the test on uint8 pixels unchanged) is floor; divisor: float32 max(background, 1), the
+    denominator of the frame/background ratio; chroma_limit (H, W) float32 is the pixel's chroma threshold."""
 
     low: np.ndarray
     high: np.ndarray
+    divisor: np.ndarray
     chroma_limit: np.ndarray
 
 
@@ -97,18 +100,15 @@ def fit_floor(median: np.ndarray, iterations: int = 4) -> np.ndarray:
     height, width, _ = median.shape
     design = _quadratic_design(height, width)
     values = median.reshape(-1, 3).astype(np.float64)
-    keep = np.ones(len(values), dtype=bool)
     step = max(1, len(values) // 20000)  # a subsample is plenty for 6 coefficients
-    sample = np.zeros(len(values), dtype=bool)
-    sample[::step] = True
-    fit = values
+    sample_design, sample_values = design[::step], values[::step]
+    keep = np.ones(len(sample_values), dtype=bool)  # only the sample's outlier flags are ever used: the rest is not computed
     for _ in range(iterations):
-        rows = keep & sample
-        coefficients, *_ = np.linalg.lstsq(design[rows], values[rows], rcond=None)
-        fit = design @ coefficients
-        residual = np.abs(values - fit).max(axis=1)
-        scale = max(1.4826 * float(np.median(residual[rows])), 1.0)
+        coefficients, *_ = np.linalg.lstsq(sample_design[keep], sample_values[keep], rcond=None)
+        residual = np.abs(sample_values - sample_design @ coefficients).max(axis=1)
+        scale = max(1.4826 * float(np.median(residual[keep])), 1.0)
         keep = residual < 3.0 * scale
+    fit = design @ coefficients
     return fit.reshape(height, width, 3).astype(np.float32)
 
 
@@ -148,7 +148,9 @@ def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLE
     unshadowed = np.where(shadowed[..., None], bright, median)
     static = np.where(shadowed, False, deviation > threshold)
     image = np.where(static[..., None], floor_fit, unshadowed)
-    grey = frames[index].sum(axis=-1, dtype=np.int16)  # the channel sum's noise, per channel: cheaper than per channel
+    sampled = frames[index]
+    # the channel sum's noise, per channel: cheaper than per channel (summed plane by plane: a sum over a trailing axis of 3 is slow)
+    grey = sampled[..., 0].astype(np.int16) + sampled[..., 1] + sampled[..., 2]
     spread = np.median(np.abs(grey - median.sum(axis=-1).astype(np.int16)), axis=0) * (1.4826 / 3.0)
     noise = np.minimum(ndi.maximum_filter(spread, size=3), MAX_NOISE).astype(np.float32)
     return Background(image=image, floor_fit=floor_fit, static=static, noise=noise)
@@ -161,27 +163,36 @@ def floor_range(background: Background) -> FloorRange:
     high = np.stack([ndi.maximum_filter(background.image[..., c], size=3) for c in range(3)], axis=-1) + tolerance
     relative_noise = background.noise / np.maximum(background.image.mean(axis=-1), 1.0)
     chroma_limit = CHROMA_OBJECT + NOISE_MULTIPLE * relative_noise
-    return FloorRange(np.floor(low).astype(np.int16), np.ceil(high).astype(np.int16), chroma_limit.astype(np.float32))
+    low_planes = np.ascontiguousarray(np.clip(np.floor(low), 0, 255).astype(np.uint8).transpose(2, 0, 1))
+    high_planes = np.ascontiguousarray(np.clip(np.ceil(high), 0, 255).astype(np.uint8).transpose(2, 0, 1))
+    divisor = np.ascontiguousarray(np.maximum(background.image, 1.0).astype(np.float32).transpose(2, 0, 1))
+    return FloorRange(low_planes, high_planes, divisor, chroma_limit.astype(np.float32))
 
 
 def classify_pixels(frame: np.ndarray, background: Background, bounds: FloorRange | None = None) -> np.ndarray:
     """(H, W) uint8 labels FLOOR / AMBIGUOUS / OBJECT for one (H, W, 3) uint8 frame; only pixels
     outside their floor range are examined (bounds: floor_range(background), once per video)."""
     bounds = floor_range(background) if bounds is None else bounds
-    candidate = np.zeros(frame.shape[:2], dtype=bool)
-    for channel in range(3):  # per channel: avoids a large (H, W, 3) temporary
-        value = frame[..., channel].astype(np.int16)
-        candidate |= (value < bounds.low[..., channel]) | (value > bounds.high[..., channel])
-    labels = np.zeros(frame.shape[:2], dtype=np.uint8)
-    ys, xs = np.nonzero(candidate)
-    if ys.size == 0:
+    if frame.dtype != np.uint8:
+        raise ValueError(f"frame: expected uint8 pixels, got {frame.dtype}")
+    height, width = frame.shape[:2]
+    candidate = np.zeros((height, width), dtype=bool)
+    for channel in range(3):  # per channel plane: array ops over a trailing axis of 3 are slow in numpy
+        value = frame[..., channel]
+        candidate |= value < bounds.low[channel]
+        candidate |= value > bounds.high[channel]
+    labels = np.zeros((height, width), dtype=np.uint8)
+    where = np.flatnonzero(candidate)
+    if where.size == 0:
         return labels
-    ratio = frame[ys, xs].astype(np.float32) / np.maximum(background.image[ys, xs], 1.0)
-    mean = ratio.mean(axis=1)
-    chroma = np.abs(ratio - mean[:, None]).max(axis=1) / np.maximum(mean, 0.05)
-    limit = bounds.chroma_limit[ys, xs]
-    label = np.full(ys.shape, AMBIGUOUS, dtype=np.uint8)
+    pixels = frame.reshape(-1, 3)[where]
+    ratio = [pixels[:, c].astype(np.float32) / bounds.divisor[c].ravel()[where] for c in range(3)]
+    mean = (ratio[0] + ratio[1] + ratio[2]) / 3  # float32, summed in channel order as ndarray.mean over 3 channels
+    deviation = np.maximum(np.maximum(np.abs(ratio[0] - mean), np.abs(ratio[1] - mean)), np.abs(ratio[2] - mean))
+    chroma = deviation / np.maximum(mean, 0.05)
+    limit = bounds.chroma_limit.ravel()[where]
+    label = np.full(where.shape, AMBIGUOUS, dtype=np.uint8)
     label[(mean >= FLOOR_RATIO) & (chroma < limit)] = FLOOR
     label[(chroma >= limit) | (mean < DARK_OBJECT) | (mean > BRIGHT_OBJECT)] = OBJECT
-    labels[ys, xs] = label
+    labels.ravel()[where] = label
     return labels

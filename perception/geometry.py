@@ -36,15 +36,13 @@ class Box2D:
 
 
 def ground_jacobian(camera: Camera, point: np.ndarray, step: float = 1e-3) -> np.ndarray:
-    """(2, 2) d(pixel u, v) / d(world x, y) at a 3D point (finite differences)."""
+    """(2, 2) d(pixel u, v) / d(world x, y) at a 3D point (finite differences, one projection of 3 points)."""
     point = np.asarray(point, dtype=float)
-    base = project(camera, point)
-    columns = []
-    for axis in range(2):
-        moved = point.copy()
-        moved[axis] += step
-        columns.append((project(camera, moved) - base) / step)
-    return np.stack(columns, axis=1)
+    moved = np.repeat(point[None], 3, axis=0)  # the point, moved along x, moved along y
+    moved[1, 0] += step
+    moved[2, 1] += step
+    pixels = project(camera, moved)
+    return ((pixels[1:] - pixels[0]) / step).T
 
 
 def primitive_window(camera: Camera, kind: str, centre: np.ndarray, size: float, margin: int = 2) -> Box2D:
@@ -61,10 +59,33 @@ def primitive_window(camera: Camera, kind: str, centre: np.ndarray, size: float,
     return Box2D(top, bottom, left, right)
 
 
+_IMAGE_RAYS: dict[tuple, np.ndarray] = {}  # camera parameters -> (H, W, 3) rays of every pixel (a video keeps its camera)
+_IMAGE_RAYS_KEPT = 4  # cameras whose rays are kept (about 3.7 MB each at 480 x 320)
+
+
+def _camera_key(camera: Camera) -> tuple:
+    return (camera.width, camera.height, camera.fx, camera.fy, camera.cx, camera.cy,
+            tuple(np.asarray(camera.position, float).ravel()), tuple(np.asarray(camera.rotation, float).ravel()))
+
+
+def image_rays(camera: Camera) -> np.ndarray:
+    """(H, W, 3) read-only world ray directions of every pixel (world.camera.pixel_rays), computed once per camera."""
+    key = _camera_key(camera)
+    rays = _IMAGE_RAYS.get(key)
+    if rays is None:
+        v, u = np.mgrid[0:camera.height, 0:camera.width].astype(float)
+        rays = pixel_rays(camera, u, v)
+        rays.flags.writeable = False
+        if len(_IMAGE_RAYS) >= _IMAGE_RAYS_KEPT:
+            _IMAGE_RAYS.pop(next(iter(_IMAGE_RAYS)))
+        _IMAGE_RAYS[key] = rays
+    return rays
+
+
 def window_rays(camera: Camera, window: Box2D) -> np.ndarray:
-    """(h, w, 3) world ray directions of a window's pixels (camera-depth parametrised), shared by ray casts over it."""
-    v, u = np.mgrid[window.top:window.bottom, window.left:window.right].astype(float)
-    return pixel_rays(camera, u, v)
+    """(h, w, 3) world ray directions of a window's pixels (camera-depth parametrised), shared by ray casts over it:
+    a view into image_rays (windows lie inside the image)."""
+    return image_rays(camera)[window.top:window.bottom, window.left:window.right]
 
 
 def ray_depths(camera: Camera, kind: str, centre: np.ndarray, size: float, yaw: float, window: Box2D,

@@ -17,7 +17,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import correlate
 
 from perception.background import FLOOR
 from perception.geometry import ground_jacobian, primitive_window, ray_depths, silhouette, window_rays
@@ -79,6 +78,30 @@ def _shift_scores(ev: np.ndarray, sil: np.ndarray, radius: int, iy: int, ix: int
     return float(((region == 2.0) & sil).sum()), float(((region == -1.0) & sil).sum())
 
 
+def shift_scores(evidence: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """Exact 'valid' correlation of an (h + 2r, w + 2r) evidence window with an (h, w) bool silhouette:
+    (2r + 1, 2r + 1) float64, entry [dy, dx] = sum of the evidence under the silhouette shifted by (dy, dx).
+
+    Each silhouette row is a few runs of pixels, so a shift's score is a sum of run totals read off the
+    evidence's row prefix sums: O(runs x shifts) instead of an FFT of the window, and exact (integer
+    evidence), so ties between shifts go to the first one rather than to FFT rounding noise.
+    """
+    height, width = mask.shape
+    shifts_y, shifts_x = evidence.shape[0] - height + 1, evidence.shape[1] - width + 1
+    if shifts_y < 1 or shifts_x < 1:
+        raise ValueError(f"shift_scores: evidence {evidence.shape} is smaller than the silhouette {mask.shape}")
+    padded = np.zeros((height, width + 2), dtype=np.int8)  # a column of zeros either side closes every run
+    padded[:, 1:-1] = mask
+    edges = np.diff(padded, axis=1)  # +1 at a run's first pixel, -1 after its last
+    run_rows, run_starts = np.nonzero(edges == 1)
+    run_ends = np.nonzero(edges == -1)[1]  # row-major order pairs each end with its start
+    prefix = np.zeros((evidence.shape[0], evidence.shape[1] + 1))
+    np.cumsum(evidence, axis=1, out=prefix[:, 1:])
+    rows = run_rows[None, None, :] + np.arange(shifts_y)[:, None, None]
+    columns = np.arange(shifts_x)[None, :, None]
+    return (prefix[rows, run_ends + columns] - prefix[rows, run_starts + columns]).sum(axis=-1)
+
+
 def fit_primitive(camera, kind: str, start: np.ndarray, size: float, yaw: float, labels: np.ndarray,
                   detection: Detection, radii: tuple[int, ...] = (6, 2)) -> Fit:
     """Slide the silhouette of ``kind`` over the detection's evidence; returns the fitted centre.
@@ -98,7 +121,7 @@ def fit_primitive(camera, kind: str, start: np.ndarray, size: float, yaw: float,
             return Fit(centre, yaw, 0.0, 0)
         ev = evidence_window(labels, detection, window.top - radius, window.bottom + radius,
                              window.left - radius, window.right + radius)
-        scores = correlate(ev, sil.astype(np.float32), mode="valid", method="fft")  # (2r+1, 2r+1); FFT: 10x faster than direct here
+        scores = shift_scores(ev, sil)  # (2r+1, 2r+1)
         iy, ix = np.unravel_index(int(np.argmax(scores)), scores.shape)
         hits, floor = _shift_scores(ev, sil, radius, iy, ix)
         score, area = hits / (detection.area + floor), int(sil.sum())

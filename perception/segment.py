@@ -31,20 +31,46 @@ MIN_SATURATION = 0.28  # (max - min) / max below which a pixel has no reliable h
 MIN_BRIGHTNESS = 28.0  # max channel below which a pixel's hue is noise
 NEUTRAL_REACH = 3  # px: hue-less pixels this close to a coloured segment belong to it
 MIN_SEGMENT_AREA = 60  # px: smaller pieces are noise or anti-aliasing fringes
+FOUR_CONNECTED = ndi.generate_binary_structure(2, 1)  # scipy.ndimage.label's default, built once rather than per call
 
 
 def pixel_hue_labels(rgb: np.ndarray) -> np.ndarray:
     """(P,) colour labels (index into COLORS, or NEUTRAL) of (P, 3) RGB pixels, by nearest palette chromaticity."""
-    high = rgb.max(axis=1).astype(np.float32)
-    low = rgb.min(axis=1).astype(np.float32)
+    red, green, blue = (rgb[:, c].astype(np.float32) for c in range(3))  # per channel: reductions over 3 columns are slow
+    high = np.maximum(np.maximum(red, green), blue)
+    low = np.minimum(np.minimum(red, green), blue)
     hued = (high - low >= MIN_SATURATION * np.maximum(high, 1.0)) & (high >= MIN_BRIGHTNESS)
     labels = np.full(len(rgb), NEUTRAL, dtype=np.int64)
     if hued.any():
-        values = rgb[hued].astype(np.float32)
-        chroma = values / np.maximum(values.sum(axis=1, keepdims=True), 1.0)
+        values = np.stack([red[hued], green[hued], blue[hued]], axis=1)
+        chroma = values / np.maximum((values[:, 0] + values[:, 1]) + values[:, 2], 1.0)[:, None]
         # nearest prototype: |c - p|^2 = |c|^2 - 2 c.p + |p|^2, and |c|^2 is the same for every p
         labels[hued] = _PROTOTYPE_LABELS[np.argmin(_PROTOTYPE_NORMS - 2.0 * chroma @ _PROTOTYPES.T, axis=1)]
     return labels
+
+
+def open_2x2(mask: np.ndarray) -> np.ndarray:
+    """(h, w) bool: the union of the 2 x 2 pixel blocks lying wholly inside ``mask`` (a morphological opening
+    with a 2 x 2 square, as scipy.ndimage.binary_opening with that structure, without its generic machinery)."""
+    block = mask[:-1, :-1] & mask[1:, :-1] & mask[:-1, 1:] & mask[1:, 1:]  # top-left corners of whole blocks
+    opened = np.zeros_like(mask, dtype=bool)
+    for dy in (0, 1):
+        for dx in (0, 1):
+            opened[dy:dy + block.shape[0], dx:dx + block.shape[1]] |= block
+    return opened
+
+
+def fill_holes(mask: np.ndarray) -> np.ndarray:
+    """(h, w) bool ``mask`` with its holes filled: the pieces of its complement (4-connected) that do not reach
+    the array's border (as scipy.ndimage.binary_fill_holes, by one labelling instead of repeated dilations)."""
+    pieces, count = ndi.label(~mask, structure=FOUR_CONNECTED)
+    if count == 0:
+        return mask.copy()
+    border = np.concatenate([pieces[0], pieces[-1], pieces[:, 0], pieces[:, -1]])
+    outside = np.zeros(count + 1, dtype=bool)
+    outside[border] = True
+    outside[0] = True  # label 0: the mask itself
+    return mask | ~outside[pieces]
 
 
 def classify_frame(frame: np.ndarray, background: Background, bounds: FloorRange | None = None) -> np.ndarray:
@@ -58,17 +84,18 @@ def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 
     """Segments of one (H, W, 3) uint8 frame (bounds: as classify_frame)."""
     labels = classify_frame(frame, background, bounds)
     height, width = labels.shape
-    components, count = ndi.label(labels == OBJECT)
+    components, count = ndi.label(labels == OBJECT, structure=FOUR_CONNECTED)
     detections: list[Detection] = []
     if count == 0:
         return FrameSegments(frame_index, labels, ())
     slices = ndi.find_objects(components)
+    areas = np.bincount(components.ravel(), minlength=count + 1)  # one pass: most components are specks
     for component_id, window in enumerate(slices, start=1):
-        local = components[window] == component_id
-        if local.sum() < MIN_SEGMENT_AREA:
+        if areas[component_id] < MIN_SEGMENT_AREA:
             continue
+        local = components[window] == component_id
         # Clean per component (cheap on its small window): drop 1-px fringes, fill highlight holes.
-        local = ndi.binary_fill_holes(ndi.binary_opening(local, structure=np.ones((2, 2), bool)))
+        local = fill_holes(open_2x2(local))
         if local.sum() < MIN_SEGMENT_AREA:
             continue
         top, left = window[0].start, window[1].start
@@ -76,14 +103,14 @@ def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 
         hue = np.full(local.shape, -2, dtype=np.int16)  # -2 outside the component
         hue[ly, lx] = pixel_hue_labels(frame[ly + top, lx + left])
         coloured = hue >= 0
-        if coloured.any():
+        if coloured.any() and (hue == NEUTRAL).any():  # (nothing to join when every pixel has a hue)
             # Hue-less pixels near a coloured pixel take its label (highlights, dark sides, fringes).
             distance, (iy, ix) = ndi.distance_transform_edt(~coloured, return_indices=True)
             near = (hue == NEUTRAL) & (distance <= NEUTRAL_REACH)
             hue[near] = hue[iy[near], ix[near]]
             # Minor colours inside a component are noise unless they form a sizeable piece.
-        for value in np.unique(hue[hue >= NEUTRAL]):
-            pieces, piece_count = ndi.label(hue == value)
+        for value in np.flatnonzero(np.bincount((hue[hue >= NEUTRAL] - NEUTRAL).ravel())) + NEUTRAL:  # the labels present, ascending
+            pieces, piece_count = ndi.label(hue == value, structure=FOUR_CONNECTED)
             # pixels of every piece from one pass (not one full-window comparison per piece)
             all_y, all_x = np.nonzero(pieces)
             piece_of = pieces[all_y, all_x]

@@ -31,7 +31,13 @@ TOUCH_TOL = 1e-7  # m: a gap this small counts as touching (for immediate contac
 CA_TOL = 1e-9  # m: conservative advancement stops when the gap is this small
 APPROACH_TOL = 1e-9  # m/s: normal approach speed below this is a graze, not a collision
 PUSH_ACCEL_TOL = 1e-9  # m/s^2: touching, no approach speed, but closing faster than this = pushing contact
-MIN_CA_STEP = 1e-4  # s: smallest advancement step; a penetration shorter than this can be missed
+MIN_CA_STEP = 1e-4  # s: smallest advancement step while overlapping (no touch can start sooner)
+# s: the smallest step near a touch. Closer than MIN_CA_STEP x closing speed, the search steps by
+# the corners' quadratic clearance bound (``clearance_step``), which never passes a touch; this
+# floor only keeps a tangential graze (zero clearance, zero normal speed) from stalling. A corner
+# can sweep in by at most its closing speed x this floor (~1e-6 m at 10 m/s).
+MIN_CLEARANCE_STEP = 1e-7
+CLEARANCE_WINDOW = 1e-2  # s: the window over which clearance_step bounds the corners' accelerations
 BISECT_TIME_TOL = 1e-12  # s
 MAX_CA_ITERATIONS = 200  # then the pair is re-checked from where it stopped (Contact.normal None)
 # m: a square's boundary within this depth of its deepest point along the normal
@@ -508,8 +514,13 @@ def _swept_square_contact(mi, mj, d0, dv, da, tau_max) -> Contact | None:
         if gap <= CA_TOL and _approaching(mi, mj, tau, normal, point):
             return Contact(tau, normal, point)
         # |gap| / bound never passes a touch: separated, it cannot close faster; overlapping,
-        # it cannot open faster (so no contact can start before then).
-        step = max(abs(gap) / closing_bound, MIN_CA_STEP)
+        # it cannot open faster (so no contact can start before then). Near a touch the
+        # corners' quadratic clearance bound steps further (it sees a corner turning away).
+        step = abs(gap) / closing_bound
+        if gap < -CA_TOL:
+            step = max(step, MIN_CA_STEP)
+        elif step < MIN_CA_STEP:
+            step = max(step, clearance_step(mi, mj, tau, tau_max - tau))
         nxt = min(tau + step, tau_max)
         if nxt <= tau:
             return None
@@ -531,6 +542,77 @@ def _swept_square_contact(mi, mj, d0, dv, da, tau_max) -> Contact | None:
         tau, gap, normal, point = nxt, new_gap, new_normal, new_point
     # Iteration budget spent (long grazing or spinning overlap): ask to be re-checked from here.
     return Contact(tau, None, point)
+
+
+def _spin_bound(m: PlanarMotion, tau_end: float) -> float:
+    """Upper bound (rad/s) of |yaw rate| within [0, tau_end] (a linear yaw-rate flow)."""
+    return max(abs(m.yaw_rate), abs(m.yaw_rate + m.yaw_accel * tau_end))
+
+
+def _point_clearance_step(point, offset, point_motion: PlanarMotion, square: PlanarMotion, radius: float,
+                          tau: float, window: float) -> float:
+    """Seconds after tau (at most ``window``) during which a material point of one body (a corner,
+    or a circle's centre less its radius) provably stays outside the square ``square``.
+
+    point: (2,) m at tau; offset: (2,) m, the point minus its body's centre; radius: m (0 for a
+    corner). The square's signed distance is convex and 1-Lipschitz in the point's position q in
+    the square's frame, so ``d(tau + s) >= d + d' s - Q s^2 / 2`` with d' the point's normal speed
+    relative to the square's material there and Q a bound of |q''| over the window
+    (q'' = r'' - 2 w_S J r' - alpha_S J r - w_S^2 r, r = point - square centre).
+    Returns the first positive root of that bound (0 when the point is inside, or touching and closing).
+    """
+    sx, sy, syaw, svx, svy = square.at(tau)
+    px, py, _, pvx, pvy = point_motion.at(tau)
+    w_point = point_motion.yaw_rate + point_motion.yaw_accel * tau
+    w_square = square.yaw_rate + square.yaw_accel * tau
+    distance, gx, gy = point_square_distance(point[0], point[1], sx, sy, syaw, square.footprint.size)
+    clearance = distance - radius
+    if clearance < 0.0:
+        return 0.0
+    rx, ry = point[0] - sx, point[1] - sy
+    # Velocity of the point minus that of the square's material at the point.
+    ux = pvx - w_point * offset[1] - (svx - w_square * ry)
+    uy = pvy + w_point * offset[0] - (svy + w_square * rx)
+    rate = gx * ux + gy * uy
+    end = tau + window
+    lever = math.hypot(*offset)
+    spin_p, spin_s = _spin_bound(point_motion, end), _spin_bound(square, end)
+    relative_speed = _speed_bound(point_motion, end) + spin_p * lever + _speed_bound(square, end)
+    relative_accel = (math.hypot(*point_motion.acceleration) + (abs(point_motion.yaw_accel) + spin_p * spin_p) * lever
+                      + math.hypot(*square.acceleration))
+    reach = math.hypot(rx, ry) + relative_speed * window
+    curvature = relative_accel + 2.0 * spin_s * relative_speed + (abs(square.yaw_accel) + spin_s * spin_s) * reach
+    if curvature <= 0.0:
+        return window if rate >= 0.0 else min(window, clearance / -rate)
+    return min(window, (rate + math.sqrt(rate * rate + 2.0 * curvature * clearance)) / curvature)
+
+
+def clearance_step(mi: PlanarMotion, mj: PlanarMotion, tau: float, window: float) -> float:
+    """Seconds after tau during which two footprints, one at least a square, provably do not start
+    touching, at least MIN_CLEARANCE_STEP and at most ``window`` (and CLEARANCE_WINDOW).
+
+    Two convex polygons (or a circle and a square) first touch where a corner of one (the circle's
+    centre, less its radius) reaches the other; each such point keeps a quadratic lower bound of
+    its clearance (``_point_clearance_step``), so a touch whose contact points separate (a spinning
+    corner turning away) is searched again exactly when a corner could come back, not a fixed step
+    later. Circle pairs: ``window`` (their contact times are exact roots).
+    """
+    window = min(window, CLEARANCE_WINDOW)
+    if window <= 0.0:
+        return MIN_CLEARANCE_STEP
+    step = window
+    for point_motion, square in ((mi, mj), (mj, mi)):
+        if square.footprint.kind != SQUARE:
+            continue
+        x, y, yaw, _, _ = point_motion.at(tau)
+        if point_motion.footprint.kind == CIRCLE:
+            points = [((x, y), (0.0, 0.0), point_motion.footprint.size)]
+        else:
+            points = [(corner, (corner[0] - x, corner[1] - y), 0.0)
+                      for corner in _square_corners(x, y, yaw, point_motion.footprint.size)]
+        for point, offset, radius in points:
+            step = min(step, _point_clearance_step(point, offset, point_motion, square, radius, tau, window))
+    return max(step, MIN_CLEARANCE_STEP)
 
 
 def _bounding_entry(d0, dv, da, radius_sum, tau_max):

@@ -47,7 +47,7 @@ import numpy as np
 
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of
 from world.camera import footprint_visible, view_events
-from world.contacts import (CIRCLE, MIN_CA_STEP, SQUARE, Contact, Footprint, PlanarMotion, closing, collision_impulse, contact_normal_speed,
+from world.contacts import (CIRCLE, SQUARE, Contact, Footprint, PlanarMotion, clearance_step, closing, collision_impulse, contact_normal_speed,
                             contact_patch_centre, footprint_distance, pair_friction, predict_contact)
 from world.edits import apply_edits
 from world.flows import (FLIGHT, REST, SKID, Segment, evaluate_segments, evaluate_yaw_rates, inactive_segment,
@@ -243,12 +243,16 @@ class _Engine:
         an = (sa.acceleration[0] - sb.acceleration[0]) * nx + (sa.acceleration[1] - sb.acceleration[1]) * ny
         if not closing(vn, an):
             # Nothing to resolve (rounding, or a corner sweeping past while the contact points
-            # separate): keep both flows. Without spin, do not predict this pair again until one
-            # of them changes (no zero-time loop); a spinning pair is searched again a step later.
-            if own_a == 0.0 and own_b == 0.0:
+            # separate): keep both flows. Without spin (or between two circles, whose gap spin
+            # does not change), do not predict this pair again until one of them changes (no
+            # zero-time loop); a spinning pair is searched again when a corner could come back.
+            circles = self.footprints[a].kind == CIRCLE and self.footprints[b].kind == CIRCLE
+            if (own_a == 0.0 and own_b == 0.0) or circles:
                 self.pred.pop((a, b), None)
             else:
-                self.pred[(a, b)] = (t + MIN_CA_STEP, Contact(MIN_CA_STEP, None, contact.point))
+                window = min(self._body_next(a), self._body_next(b), self.t_end) - t
+                step = clearance_step(self._motion(a, t), self._motion(b, t), 0.0, window)
+                self.pred[(a, b)] = (t + step, Contact(step, None, contact.point))
             return []
         ma, mb = body_a.mass, body_b.mass
         key = (a, b)

@@ -44,6 +44,9 @@ MAX_CA_ITERATIONS = 200  # then the pair is re-checked from where it stopped (Co
 # carries the contact (the patch of a face pressed flat). Our choice, not measured:
 # it makes the patch move continuously as a face tilts away from its partner's.
 PATCH_DEPTH = 1e-3
+# Passes of stopping impulses over a patch's centre and ends after an impact: each pass removes
+# energy; two points (the ends) settle within a few (the rest is below rounding at contact speeds).
+PATCH_END_PASSES = 4
 
 
 @dataclass(frozen=True)
@@ -203,12 +206,13 @@ def _support_interval(footprint: Footprint, cx: float, cy: float, yaw: float,
     return min(ends), max(ends)
 
 
-def contact_patch_centre(
+def contact_patch(
     fi: Footprint, xi: float, yi: float, yawi: float,
     fj: Footprint, xj: float, yj: float, yawj: float,
     normal: tuple[float, float], point: tuple[float, float],
-) -> tuple[float, float]:
-    """Centre (2,) m of the contact patch of two touching footprints: where the normal impulse acts.
+) -> tuple[tuple[float, float], tuple[tuple[float, float], tuple[float, float]]]:
+    """Centre (2,) m of the contact patch of two touching footprints (where the normal impulse
+    acts) and its two ends ((2,), (2,)) m (both the centre for a point contact).
 
     normal: (2,) unit from j to i; point: a contact point (``footprint_distance``).
     The patch is the overlap, along the tangent, of the parts of both
@@ -222,9 +226,21 @@ def contact_patch_centre(
     # i's tangent is -t, j's is t: flip i's interval onto j's axis.
     lo, hi = max(-hi_i, lo_j), min(-lo_i, hi_j)
     if lo > hi:
-        return point
-    mid = 0.5 * (lo + hi)
-    return point[0] - normal[1] * mid, point[1] + normal[0] * mid
+        return point, (point, point)
+
+    def along(offset: float) -> tuple[float, float]:
+        return point[0] - normal[1] * offset, point[1] + normal[0] * offset
+
+    return along(0.5 * (lo + hi)), (along(lo), along(hi))
+
+
+def contact_patch_centre(
+    fi: Footprint, xi: float, yi: float, yawi: float,
+    fj: Footprint, xj: float, yj: float, yawj: float,
+    normal: tuple[float, float], point: tuple[float, float],
+) -> tuple[float, float]:
+    """Centre (2,) m of the contact patch (``contact_patch``): where the normal impulse acts."""
+    return contact_patch(fi, xi, yi, yawi, fj, xj, yj, yawj, normal, point)[0]
 
 
 # --------------------------------------------------------------------------- contact times
@@ -466,14 +482,16 @@ def _paths_come_close(mi: PlanarMotion, mj: PlanarMotion, tau_max: float, reach:
 
 
 def _approaching(mi: PlanarMotion, mj: PlanarMotion, tau: float, normal, point) -> bool:
-    """Closing along the normal at the contact patch's centre (translation plus spin; where
-    the rollout applies the impulse), or, at zero normal speed, by relative acceleration (pushing)."""
+    """Closing along the normal somewhere on the contact patch (its centre, where the rollout
+    applies the impulse, or an end a spin turns into the partner; translation plus spin), or,
+    at zero normal speed, by relative acceleration (pushing)."""
     xi, yi, yawi, vxi, vyi = mi.at(tau)
     xj, yj, yawj, vxj, vyj = mj.at(tau)
     wi = mi.yaw_rate + mi.yaw_accel * tau
     wj = mj.yaw_rate + mj.yaw_accel * tau
-    centre = contact_patch_centre(mi.footprint, xi, yi, yawi, mj.footprint, xj, yj, yawj, normal, point)
-    normal_speed = contact_normal_speed(normal, centre, ((xi, yi), (xj, yj)), ((vxi, vyi), (vxj, vyj)), (wi, wj))
+    centre, ends = contact_patch(mi.footprint, xi, yi, yawi, mj.footprint, xj, yj, yawj, normal, point)
+    normal_speed = min(contact_normal_speed(normal, at, ((xi, yi), (xj, yj)), ((vxi, vyi), (vxj, vyj)), (wi, wj))
+                       for at in (centre, *ends))
     if normal_speed < -APPROACH_TOL:
         return True
     normal_accel = ((mi.acceleration[0] - mj.acceleration[0]) * normal[0]
@@ -754,6 +772,7 @@ def collision_impulse(
     slip_removal: float = 1.0,
     vertical_slip: float = 0.0,
     vertical_compliance: float = 0.0,
+    patch_ends: tuple[tuple[float, float], ...] = (),
 ) -> CollisionImpulse:
     """Impulse of a planar rigid-body impact at the contact point, in closed form (the one owner).
 
@@ -771,6 +790,9 @@ def collision_impulse(
        (Coulomb-bounded by ``friction * j``).
     3. Friction at an off-centre point can turn the contact points towards each
        other again; a last normal impulse then only stops that approach (u_n -> 0).
+    4. ``patch_ends`` ((2,) m each, the ends of a face pressed flat): a spin can still
+       turn one end into the partner; a normal impulse at that end only stops its
+       approach (a few passes over the centre and the ends, as sequential impulses).
     Each step removes kinetic energy or keeps it (e <= 1); every impulse acts
     at the same point on both bodies, equal and opposite, so linear momentum
     and angular momentum about any point are conserved.
@@ -809,6 +831,15 @@ def collision_impulse(
             extra = -again / k_normal
             push(extra, nx, ny, arm_i, arm_j)
             j_normal += extra
+    arms = [(arm_i, arm_j)] + [((end[0] - centres[0][0]) * ny - (end[1] - centres[0][1]) * nx,
+                                (end[0] - centres[1][0]) * ny - (end[1] - centres[1][1]) * nx) for end in patch_ends]
+    for _ in range(PATCH_END_PASSES if patch_ends else 0):
+        for end_arm_i, end_arm_j in arms:
+            approach = (vix - vjx) * nx + (viy - vjy) * ny + wi * end_arm_i - wj * end_arm_j
+            if approach < 0.0:
+                extra = -approach / (1.0 / mi + 1.0 / mj + end_arm_i * end_arm_i / inertia_i + end_arm_j * end_arm_j / inertia_j)
+                push(extra, nx, ny, end_arm_i, end_arm_j)
+                j_normal += extra
     (v0ix, v0iy), (v0jx, v0jy) = velocities
     return CollisionImpulse(j_normal, (vix - v0ix, viy - v0iy), (vjx - v0jx, vjy - v0jy),
                             wi - yaw_rates[0], wj - yaw_rates[1], tangential)

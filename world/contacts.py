@@ -532,13 +532,14 @@ def _swept_square_contact(mi, mj, d0, dv, da, tau_max) -> Contact | None:
         if gap <= CA_TOL and _approaching(mi, mj, tau, normal, point):
             return Contact(tau, normal, point)
         # |gap| / bound never passes a touch: separated, it cannot close faster; overlapping,
-        # it cannot open faster (so no contact can start before then). Near a touch the
-        # corners' quadratic clearance bound steps further (it sees a corner turning away).
+        # it cannot open faster (so no contact can start before then). From a touch whose
+        # contact points separate, the corners' clearance bound says when one could come back;
+        # otherwise at least MIN_CA_STEP, and a step through the surface is bisected (exact roots).
         step = abs(gap) / closing_bound
-        if gap < -CA_TOL:
-            step = max(step, MIN_CA_STEP)
-        elif step < MIN_CA_STEP:
+        if abs(gap) <= CA_TOL:
             step = max(step, clearance_step(mi, mj, tau, tau_max - tau))
+        else:
+            step = max(step, MIN_CA_STEP)
         nxt = min(tau + step, tau_max)
         if nxt <= tau:
             return None
@@ -555,6 +556,9 @@ def _swept_square_contact(mi, mj, d0, dv, da, tau_max) -> Contact | None:
                     lo, lo_pack = mid, pack
             if _approaching(mi, mj, lo, lo_pack[1], lo_pack[2]):
                 return Contact(lo, lo_pack[1], lo_pack[2])
+            # A touch that separates (a corner turning away): go on from it, not from inside.
+            tau, (gap, normal, point) = lo, lo_pack
+            continue
         if nxt >= tau_max:
             return None
         tau, gap, normal, point = nxt, new_gap, new_normal, new_point

@@ -31,13 +31,22 @@ TOUCH_TOL = 1e-7  # m: a gap this small counts as touching (for immediate contac
 CA_TOL = 1e-9  # m: conservative advancement stops when the gap is this small
 APPROACH_TOL = 1e-9  # m/s: normal approach speed below this is a graze, not a collision
 PUSH_ACCEL_TOL = 1e-9  # m/s^2: touching, no approach speed, but closing faster than this = pushing contact
-MIN_CA_STEP = 1e-4  # s: smallest advancement step; a penetration shorter than this can be missed
+MIN_CA_STEP = 1e-4  # s: smallest advancement step while overlapping (no touch can start sooner)
+# s: the smallest step near a touch. Closer than MIN_CA_STEP x closing speed, the search steps by
+# the corners' quadratic clearance bound (``clearance_step``), which never passes a touch; this
+# floor only keeps a tangential graze (zero clearance, zero normal speed) from stalling. A corner
+# can sweep in by at most its closing speed x this floor (~1e-6 m at 10 m/s).
+MIN_CLEARANCE_STEP = 1e-7
+CLEARANCE_WINDOW = 1e-2  # s: the window over which clearance_step bounds the corners' accelerations
 BISECT_TIME_TOL = 1e-12  # s
 MAX_CA_ITERATIONS = 200  # then the pair is re-checked from where it stopped (Contact.normal None)
 # m: a square's boundary within this depth of its deepest point along the normal
 # carries the contact (the patch of a face pressed flat). Our choice, not measured:
 # it makes the patch move continuously as a face tilts away from its partner's.
 PATCH_DEPTH = 1e-3
+# Passes of stopping impulses over a patch's centre and ends after an impact: each pass removes
+# energy; two points (the ends) settle within a few (the rest is below rounding at contact speeds).
+PATCH_END_PASSES = 4
 
 
 @dataclass(frozen=True)
@@ -197,12 +206,13 @@ def _support_interval(footprint: Footprint, cx: float, cy: float, yaw: float,
     return min(ends), max(ends)
 
 
-def contact_patch_centre(
+def contact_patch(
     fi: Footprint, xi: float, yi: float, yawi: float,
     fj: Footprint, xj: float, yj: float, yawj: float,
     normal: tuple[float, float], point: tuple[float, float],
-) -> tuple[float, float]:
-    """Centre (2,) m of the contact patch of two touching footprints: where the normal impulse acts.
+) -> tuple[tuple[float, float], tuple[tuple[float, float], tuple[float, float]]]:
+    """Centre (2,) m of the contact patch of two touching footprints (where the normal impulse
+    acts) and its two ends ((2,), (2,)) m (both the centre for a point contact).
 
     normal: (2,) unit from j to i; point: a contact point (``footprint_distance``).
     The patch is the overlap, along the tangent, of the parts of both
@@ -216,9 +226,21 @@ def contact_patch_centre(
     # i's tangent is -t, j's is t: flip i's interval onto j's axis.
     lo, hi = max(-hi_i, lo_j), min(-lo_i, hi_j)
     if lo > hi:
-        return point
-    mid = 0.5 * (lo + hi)
-    return point[0] - normal[1] * mid, point[1] + normal[0] * mid
+        return point, (point, point)
+
+    def along(offset: float) -> tuple[float, float]:
+        return point[0] - normal[1] * offset, point[1] + normal[0] * offset
+
+    return along(0.5 * (lo + hi)), (along(lo), along(hi))
+
+
+def contact_patch_centre(
+    fi: Footprint, xi: float, yi: float, yawi: float,
+    fj: Footprint, xj: float, yj: float, yawj: float,
+    normal: tuple[float, float], point: tuple[float, float],
+) -> tuple[float, float]:
+    """Centre (2,) m of the contact patch (``contact_patch``): where the normal impulse acts."""
+    return contact_patch(fi, xi, yi, yawi, fj, xj, yj, yawj, normal, point)[0]
 
 
 # --------------------------------------------------------------------------- contact times
@@ -460,14 +482,16 @@ def _paths_come_close(mi: PlanarMotion, mj: PlanarMotion, tau_max: float, reach:
 
 
 def _approaching(mi: PlanarMotion, mj: PlanarMotion, tau: float, normal, point) -> bool:
-    """Closing along the normal at the contact patch's centre (translation plus spin; where
-    the rollout applies the impulse), or, at zero normal speed, by relative acceleration (pushing)."""
+    """Closing along the normal somewhere on the contact patch (its centre, where the rollout
+    applies the impulse, or an end a spin turns into the partner; translation plus spin), or,
+    at zero normal speed, by relative acceleration (pushing)."""
     xi, yi, yawi, vxi, vyi = mi.at(tau)
     xj, yj, yawj, vxj, vyj = mj.at(tau)
     wi = mi.yaw_rate + mi.yaw_accel * tau
     wj = mj.yaw_rate + mj.yaw_accel * tau
-    centre = contact_patch_centre(mi.footprint, xi, yi, yawi, mj.footprint, xj, yj, yawj, normal, point)
-    normal_speed = contact_normal_speed(normal, centre, ((xi, yi), (xj, yj)), ((vxi, vyi), (vxj, vyj)), (wi, wj))
+    centre, ends = contact_patch(mi.footprint, xi, yi, yawi, mj.footprint, xj, yj, yawj, normal, point)
+    normal_speed = min(contact_normal_speed(normal, at, ((xi, yi), (xj, yj)), ((vxi, vyi), (vxj, vyj)), (wi, wj))
+                       for at in (centre, *ends))
     if normal_speed < -APPROACH_TOL:
         return True
     normal_accel = ((mi.acceleration[0] - mj.acceleration[0]) * normal[0]
@@ -508,8 +532,14 @@ def _swept_square_contact(mi, mj, d0, dv, da, tau_max) -> Contact | None:
         if gap <= CA_TOL and _approaching(mi, mj, tau, normal, point):
             return Contact(tau, normal, point)
         # |gap| / bound never passes a touch: separated, it cannot close faster; overlapping,
-        # it cannot open faster (so no contact can start before then).
-        step = max(abs(gap) / closing_bound, MIN_CA_STEP)
+        # it cannot open faster (so no contact can start before then). From a touch whose
+        # contact points separate, the corners' clearance bound says when one could come back;
+        # otherwise at least MIN_CA_STEP, and a step through the surface is bisected (exact roots).
+        step = abs(gap) / closing_bound
+        if abs(gap) <= CA_TOL:
+            step = max(step, clearance_step(mi, mj, tau, tau_max - tau))
+        else:
+            step = max(step, MIN_CA_STEP)
         nxt = min(tau + step, tau_max)
         if nxt <= tau:
             return None
@@ -526,11 +556,85 @@ def _swept_square_contact(mi, mj, d0, dv, da, tau_max) -> Contact | None:
                     lo, lo_pack = mid, pack
             if _approaching(mi, mj, lo, lo_pack[1], lo_pack[2]):
                 return Contact(lo, lo_pack[1], lo_pack[2])
+            # A touch that separates (a corner turning away): go on from it, not from inside.
+            tau, (gap, normal, point) = lo, lo_pack
+            continue
         if nxt >= tau_max:
             return None
         tau, gap, normal, point = nxt, new_gap, new_normal, new_point
     # Iteration budget spent (long grazing or spinning overlap): ask to be re-checked from here.
     return Contact(tau, None, point)
+
+
+def _spin_bound(m: PlanarMotion, tau_end: float) -> float:
+    """Upper bound (rad/s) of |yaw rate| within [0, tau_end] (a linear yaw-rate flow)."""
+    return max(abs(m.yaw_rate), abs(m.yaw_rate + m.yaw_accel * tau_end))
+
+
+def _point_clearance_step(point, offset, point_motion: PlanarMotion, square: PlanarMotion, radius: float,
+                          tau: float, window: float) -> float:
+    """Seconds after tau (at most ``window``) during which a material point of one body (a corner,
+    or a circle's centre less its radius) provably stays outside the square ``square``.
+
+    point: (2,) m at tau; offset: (2,) m, the point minus its body's centre; radius: m (0 for a
+    corner). The square's signed distance is convex and 1-Lipschitz in the point's position q in
+    the square's frame, so ``d(tau + s) >= d + d' s - Q s^2 / 2`` with d' the point's normal speed
+    relative to the square's material there and Q a bound of |q''| over the window
+    (q'' = r'' - 2 w_S J r' - alpha_S J r - w_S^2 r, r = point - square centre).
+    Returns the first positive root of that bound (0 when the point is inside, or touching and closing).
+    """
+    sx, sy, syaw, svx, svy = square.at(tau)
+    px, py, _, pvx, pvy = point_motion.at(tau)
+    w_point = point_motion.yaw_rate + point_motion.yaw_accel * tau
+    w_square = square.yaw_rate + square.yaw_accel * tau
+    distance, gx, gy = point_square_distance(point[0], point[1], sx, sy, syaw, square.footprint.size)
+    clearance = distance - radius
+    if clearance < 0.0:
+        return 0.0
+    rx, ry = point[0] - sx, point[1] - sy
+    # Velocity of the point minus that of the square's material at the point.
+    ux = pvx - w_point * offset[1] - (svx - w_square * ry)
+    uy = pvy + w_point * offset[0] - (svy + w_square * rx)
+    rate = gx * ux + gy * uy
+    end = tau + window
+    lever = math.hypot(*offset)
+    spin_p, spin_s = _spin_bound(point_motion, end), _spin_bound(square, end)
+    relative_speed = _speed_bound(point_motion, end) + spin_p * lever + _speed_bound(square, end)
+    relative_accel = (math.hypot(*point_motion.acceleration) + (abs(point_motion.yaw_accel) + spin_p * spin_p) * lever
+                      + math.hypot(*square.acceleration))
+    reach = math.hypot(rx, ry) + relative_speed * window
+    curvature = relative_accel + 2.0 * spin_s * relative_speed + (abs(square.yaw_accel) + spin_s * spin_s) * reach
+    if curvature <= 0.0:
+        return window if rate >= 0.0 else min(window, clearance / -rate)
+    return min(window, (rate + math.sqrt(rate * rate + 2.0 * curvature * clearance)) / curvature)
+
+
+def clearance_step(mi: PlanarMotion, mj: PlanarMotion, tau: float, window: float) -> float:
+    """Seconds after tau during which two footprints, one at least a square, provably do not start
+    touching, at least MIN_CLEARANCE_STEP and at most ``window`` (and CLEARANCE_WINDOW).
+
+    Two convex polygons (or a circle and a square) first touch where a corner of one (the circle's
+    centre, less its radius) reaches the other; each such point keeps a quadratic lower bound of
+    its clearance (``_point_clearance_step``), so a touch whose contact points separate (a spinning
+    corner turning away) is searched again exactly when a corner could come back, not a fixed step
+    later. Circle pairs: ``window`` (their contact times are exact roots).
+    """
+    window = min(window, CLEARANCE_WINDOW)
+    if window <= 0.0:
+        return MIN_CLEARANCE_STEP
+    step = window
+    for point_motion, square in ((mi, mj), (mj, mi)):
+        if square.footprint.kind != SQUARE:
+            continue
+        x, y, yaw, _, _ = point_motion.at(tau)
+        if point_motion.footprint.kind == CIRCLE:
+            points = [((x, y), (0.0, 0.0), point_motion.footprint.size)]
+        else:
+            points = [(corner, (corner[0] - x, corner[1] - y), 0.0)
+                      for corner in _square_corners(x, y, yaw, point_motion.footprint.size)]
+        for point, offset, radius in points:
+            step = min(step, _point_clearance_step(point, offset, point_motion, square, radius, tau, window))
+    return max(step, MIN_CLEARANCE_STEP)
 
 
 def _bounding_entry(d0, dv, da, radius_sum, tau_max):
@@ -672,6 +776,7 @@ def collision_impulse(
     slip_removal: float = 1.0,
     vertical_slip: float = 0.0,
     vertical_compliance: float = 0.0,
+    patch_ends: tuple[tuple[float, float], ...] = (),
 ) -> CollisionImpulse:
     """Impulse of a planar rigid-body impact at the contact point, in closed form (the one owner).
 
@@ -689,6 +794,9 @@ def collision_impulse(
        (Coulomb-bounded by ``friction * j``).
     3. Friction at an off-centre point can turn the contact points towards each
        other again; a last normal impulse then only stops that approach (u_n -> 0).
+    4. ``patch_ends`` ((2,) m each, the ends of a face pressed flat): a spin can still
+       turn one end into the partner; a normal impulse at that end only stops its
+       approach (a few passes over the centre and the ends, as sequential impulses).
     Each step removes kinetic energy or keeps it (e <= 1); every impulse acts
     at the same point on both bodies, equal and opposite, so linear momentum
     and angular momentum about any point are conserved.
@@ -727,6 +835,15 @@ def collision_impulse(
             extra = -again / k_normal
             push(extra, nx, ny, arm_i, arm_j)
             j_normal += extra
+    arms = [(arm_i, arm_j)] + [((end[0] - centres[0][0]) * ny - (end[1] - centres[0][1]) * nx,
+                                (end[0] - centres[1][0]) * ny - (end[1] - centres[1][1]) * nx) for end in patch_ends]
+    for _ in range(PATCH_END_PASSES if patch_ends else 0):
+        for end_arm_i, end_arm_j in arms:
+            approach = (vix - vjx) * nx + (viy - vjy) * ny + wi * end_arm_i - wj * end_arm_j
+            if approach < 0.0:
+                extra = -approach / (1.0 / mi + 1.0 / mj + end_arm_i * end_arm_i / inertia_i + end_arm_j * end_arm_j / inertia_j)
+                push(extra, nx, ny, end_arm_i, end_arm_j)
+                j_normal += extra
     (v0ix, v0iy), (v0jx, v0jy) = velocities
     return CollisionImpulse(j_normal, (vix - v0ix, viy - v0iy), (vjx - v0jx, vjy - v0jy),
                             wi - yaw_rates[0], wj - yaw_rates[1], tangential)

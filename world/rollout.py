@@ -47,8 +47,8 @@ import numpy as np
 
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of
 from world.camera import footprint_visible, view_events
-from world.contacts import (CIRCLE, MIN_CA_STEP, SQUARE, Contact, Footprint, PlanarMotion, closing, collision_impulse, contact_normal_speed,
-                            contact_patch_centre, footprint_distance, pair_friction, predict_contact)
+from world.contacts import (CIRCLE, SQUARE, Contact, Footprint, PlanarMotion, clearance_step, closing, collision_impulse, contact_normal_speed,
+                            contact_patch, footprint_distance, pair_friction, predict_contact)
 from world.edits import apply_edits
 from world.flows import (FLIGHT, REST, SKID, Segment, evaluate_segments, evaluate_yaw_rates, inactive_segment,
                          start_segment, start_sphere_segment)
@@ -233,22 +233,28 @@ class _Engine:
         nx, ny = contact.normal  # from b to a
         own_a, own_b = self._yaw_rate_of(a, wa), self._yaw_rate_of(b, wb)
         # The impulse acts at the contact patch's centre: off the centre line of a cube, it spins it.
-        point = contact_patch_centre(self.footprints[a], pa[0], pa[1], yaw_a,
-                                     self.footprints[b], pb[0], pb[1], yaw_b, (nx, ny), contact.point)
+        point, ends = contact_patch(self.footprints[a], pa[0], pa[1], yaw_a,
+                                    self.footprints[b], pb[0], pb[1], yaw_b, (nx, ny), contact.point)
         centres = ((pa[0], pa[1]), (pb[0], pb[1]))
-        vn = contact_normal_speed((nx, ny), point, centres, ((va[0], va[1]), (vb[0], vb[1])), (own_a, own_b))
+        # The patch closes where it closes fastest: its centre, or an end a spin turns inwards.
+        vn = min(contact_normal_speed((nx, ny), at, centres, ((va[0], va[1]), (vb[0], vb[1])), (own_a, own_b))
+                 for at in (point, *ends))
         ids = tuple(sorted((body_a.id, body_b.id)))
         height = 0.5 * (pa[2] + pb[2])
         sa, sb = self.segments[a], self.segments[b]
         an = (sa.acceleration[0] - sb.acceleration[0]) * nx + (sa.acceleration[1] - sb.acceleration[1]) * ny
         if not closing(vn, an):
             # Nothing to resolve (rounding, or a corner sweeping past while the contact points
-            # separate): keep both flows. Without spin, do not predict this pair again until one
-            # of them changes (no zero-time loop); a spinning pair is searched again a step later.
-            if own_a == 0.0 and own_b == 0.0:
+            # separate): keep both flows. Without spin (or between two circles, whose gap spin
+            # does not change), do not predict this pair again until one of them changes (no
+            # zero-time loop); a spinning pair is searched again when a corner could come back.
+            circles = self.footprints[a].kind == CIRCLE and self.footprints[b].kind == CIRCLE
+            if (own_a == 0.0 and own_b == 0.0) or circles:
                 self.pred.pop((a, b), None)
             else:
-                self.pred[(a, b)] = (t + MIN_CA_STEP, Contact(MIN_CA_STEP, None, contact.point))
+                window = min(self._body_next(a), self._body_next(b), self.t_end) - t
+                step = clearance_step(self._motion(a, t), self._motion(b, t), 0.0, window)
+                self.pred[(a, b)] = (t + step, Contact(step, None, contact.point))
             return []
         ma, mb = body_a.mass, body_b.mass
         key = (a, b)
@@ -270,7 +276,7 @@ class _Engine:
                 (nx, ny), point, centres, ((va[0], va[1]), (vb[0], vb[1])), (own_a, own_b), (ma, mb),
                 (ma * body_a.shape.yaw_inertia_per_mass, mb * body_b.shape.yaw_inertia_per_mass),
                 self._restitution(a, b), mu, self.world.contact_slip_removal, vertical_slip,
-                roll_a / ma + roll_b / mb)
+                roll_a / ma + roll_b / mb, ends if ends[0] != ends[1] else ())
             impulse = response.normal_impulse
             dva, dvb = response.velocity_change_i, response.velocity_change_j
             new_va = (va[0] + dva[0], va[1] + dva[1], va[2])

@@ -9,16 +9,17 @@ import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from world.contacts import MIN_CA_STEP, footprint_distance
+from world.contacts import MIN_CLEARANCE_STEP, footprint_distance
 from world.rollout import MAX_EVENTS, footprint_of, simulate
 from world.types import Body, BodyState, Shape, World
 
 # Interpenetration bound (m) for every sampled frame. Contacts are exact roots
 # (circles) or bisected to 1e-12 s (squares), pushing contacts are settled and
 # impacts act at the contact point (a spinning corner is pushed back), so only rounding remains,
-# except where a spinning pair's contact points separate at a touch: the engine searches that pair
-# again MIN_CA_STEP later, so a corner can sweep in by at most its closing speed x MIN_CA_STEP
-# (docs/engine.md, Limits; a hypothesis case found 22 um).
+# and where a spinning pair's contact points separate at a touch, the search resumes when a corner
+# could come back (contacts.clearance_step), at least MIN_CLEARANCE_STEP later: a corner can
+# sweep in by at most its closing speed x MIN_CLEARANCE_STEP (< 1 um here; the former fixed
+# 1e-4 s re-search let a hypothesis case in by 22 um).
 PENETRATION_TOL = 1e-6
 FPS = 200.0
 HORIZON = 600  # 3 s
@@ -77,7 +78,7 @@ def test_bodies_never_interpenetrate_beyond_the_tolerance(world):
     point_speed = (np.linalg.norm(rollout.velocities[:, :, :2], axis=2)
                    + np.abs(rollout.yaw_rates) * np.array([f.bounding_radius for f in footprints]))
     for a, b in itertools.combinations(range(len(world.bodies)), 2):
-        sweep = MIN_CA_STEP * float(np.max(point_speed[:, a] + point_speed[:, b]))
+        sweep = MIN_CLEARANCE_STEP * float(np.max(point_speed[:, a] + point_speed[:, b]))
         for t in range(HORIZON):
             gap, _, _ = footprint_distance(footprints[a], *rollout.positions[t, a, :2], rollout.yaw[t, a],
                                            footprints[b], *rollout.positions[t, b, :2], rollout.yaw[t, b])

@@ -29,7 +29,7 @@ from threadpoolctl import threadpool_limits
 
 from world.contacts import footprint_distance
 from world.identify.jacobian import SecantJacobian
-from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, robust_residuals
+from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, late_departure, robust_residuals, tail_state
 from world.identify.segments import CandidateCollision, find_candidate_collisions
 from world.observations import ObjectTrack, Observations
 from world.rollout import footprint_of, simulate
@@ -738,12 +738,44 @@ def _observed_spin(track: ObjectTrack, breakpoints: Sequence[int], fps: float, f
     return float(coefficients[-1]), float(coefficients[-2])
 
 
+# Shapes whose yaw rate is read from the track's yaw: a cylinder's spin changes its friction at
+# later contacts; oracle tracks carry its yaw, perception gives NaN (then nothing is read).
+SPIN_SEEN_SHAPES = ("cube", "cylinder")
+# m: a body whose last stretch has only 2 samples (a contact in the last frames) is anchored
+# from them when the replay misses its last observed position by more than this.
+SHORT_STRETCH_MISS = 0.05
+
+
+def _seen_motion(fit: TrackFit, friction: float, replay_position: np.ndarray, fps: float, last: int,
+                 gravity: float) -> tuple[tuple[np.ndarray, np.ndarray], tuple[int, ...]] | None:
+    """Position (2,) m and velocity (2,) m/s at frame ``last`` from the track, and the breakpoints
+    that bound the samples they came from; None: keep the replay's state.
+
+    The last stretch's slide, unless its tail left that slide (a collision in the last frames
+    that the change points cannot see yet, local_fit.late_departure): then a line through the
+    tail. A last stretch of 2 samples is used only when the replay is clearly elsewhere.
+    """
+    stretch, track = fit.stretches[-1], fit.track
+    known = track.observed & (track.frames >= round(stretch.start_time * fps)) & (track.frames <= last)
+    frames, positions = track.frames[known], track.positions[known, :2]
+    times, at = frames / fps, last / fps
+    if stretch.samples >= 3:
+        cut = late_departure(times, positions, stretch, gravity)
+        if cut is None:
+            return stretch.state_at(at, gravity), fit.breakpoints
+        return tail_state(times[cut:], positions[cut:], friction, gravity, at), (*fit.breakpoints, int(frames[cut]) - 1)
+    if stretch.samples == 2 and frames.size >= 2 and float(np.linalg.norm(positions[-1] - replay_position)) > SHORT_STRETCH_MISS:
+        return tail_state(times[-2:], positions[-2:], friction, gravity, at), fit.breakpoints
+    return None
+
+
 def _anchor(world: World, track_fits: Mapping[int, TrackFit], observations: Observations, config: FitConfig) -> Anchor | None:
     """States at the last observed frame from each body's last collision-free stretch.
 
-    A body is anchored when it is seen on the last frame and its last stretch
-    has at least 3 samples (a contact in the last frames leaves its new
-    velocity unknown: the replay's state is kept). An anchored state that
+    A body is anchored when it is seen on the last frame and its track gives
+    its motion there (``_seen_motion``: a last stretch of at least 3 samples,
+    or its tail after a collision in the last frames; 2 samples only when the
+    replay is clearly elsewhere; else the replay's state is kept). An anchored state that
     would overlap another body is dropped (the replay is kept) rather than
     inventing a push.
     """
@@ -756,14 +788,16 @@ def _anchor(world: World, track_fits: Mapping[int, TrackFit], observations: Obse
     states: dict[int, BodyState] = {}
     for body in world.bodies:
         fit = track_fits[body.id]
-        stretch = fit.stretches[-1]
         seen_last = fit.track.observed[fit.track.frames == last]
-        if not (seen_last.size and seen_last[0]) or stretch.samples < 3:
+        if not (seen_last.size and seen_last[0]):
             continue
-        position, velocity = stretch.state_at(time_at, config.gravity)
+        seen = _seen_motion(fit, body.friction, replay.positions[last, column[body.id], :2], observations.fps, last, config.gravity)
+        if seen is None:
+            continue
+        (position, velocity), breakpoints = seen
         yaw, yaw_rate = float(replay.yaw[last, column[body.id]]), 0.0
-        seen_spin = _observed_spin(fit.track, fit.breakpoints, observations.fps, last) if body.shape.kind == "cube" else None
-        if seen_spin is not None:  # the video shows the cube's orientation: it decides later contacts
+        seen_spin = _observed_spin(fit.track, breakpoints, observations.fps, last) if body.shape.kind in SPIN_SEEN_SHAPES else None
+        if seen_spin is not None:  # the track shows the body's orientation: it decides later contacts
             yaw, yaw_rate = seen_spin
         states[body.id] = BodyState(
             (float(position[0]), float(position[1]), body.shape.rest_height),

@@ -156,3 +156,74 @@ def fit_slide(
     if rest_rmse < 1.5 * rmse:
         return rest
     return SlideFit(start_time, position, velocity, mu, identified, rmse, int(t.shape[0]))
+
+
+# A tail of a stretch whose samples all miss the slide of the samples before
+# the last LATE_DEPARTURE_WINDOW by more than this many robust standard
+# deviations of that slide's own misses (and at least LATE_DEPARTURE_FLOOR)
+# left it: a collision in the last frames of the video, which the change-point
+# analysis (6 frames after a contact) cannot see yet.
+LATE_DEPARTURE_SIGMAS = 4.0
+LATE_DEPARTURE_FLOOR = 0.01  # m
+LATE_DEPARTURE_WINDOW = 12  # last samples where a departure is looked for
+LATE_DEPARTURE_MIN_SAMPLES = 3  # departed samples needed to read the new velocity
+LATE_DEPARTURE_MIN_BEFORE = 5  # samples before the window that give the slide
+
+
+def late_departure(times: np.ndarray, positions: np.ndarray, stretch: SlideFit, gravity: float) -> int | None:
+    """Index of the first sample of the stretch's tail that left its slide, or None.
+
+    times: (T,) s, increasing, the stretch's samples up to the last observed
+    frame; positions: (T, 2) m; stretch: the slide fitted to them (cheap
+    rejection: its last sample within LATE_DEPARTURE_FLOOR). The slide of
+    the samples before the last LATE_DEPARTURE_WINDOW is refitted (the whole
+    stretch's fit bends towards the tail); the tail is the longest run of last
+    samples that each miss it by more than the threshold; at least
+    LATE_DEPARTURE_MIN_SAMPLES of them, after its first (the contact's own
+    frame, blurred by the contact), are needed.
+    """
+    times = np.asarray(times, dtype=np.float64)
+    positions = np.asarray(positions, dtype=np.float64)[:, :2]
+    last_miss = slide_positions(times[-1:], stretch.start_time, stretch.position, stretch.velocity, stretch.friction, gravity)[0] - positions[-1]
+    head = times.size - LATE_DEPARTURE_WINDOW
+    if float(np.hypot(*last_miss)) <= LATE_DEPARTURE_FLOOR or head < LATE_DEPARTURE_MIN_BEFORE:
+        return None
+    base = fit_slide(times[:head], positions[:head], np.ones(head), gravity, stretch.friction)
+    miss = np.linalg.norm(slide_positions(times, base.start_time, base.position, base.velocity, base.friction, gravity) - positions, axis=1)
+    threshold = max(LATE_DEPARTURE_FLOOR, LATE_DEPARTURE_SIGMAS * 1.4826 * float(np.median(miss[:head])))
+    tail = 0
+    while tail < LATE_DEPARTURE_WINDOW and miss[miss.size - 1 - tail] > threshold:
+        tail += 1
+    if tail < LATE_DEPARTURE_MIN_SAMPLES + 1:
+        return None
+    return miss.size - tail + 1  # drop the contact's own frame
+
+
+def tail_state(times: np.ndarray, positions: np.ndarray, friction: float, gravity: float, at: float) -> tuple[np.ndarray, np.ndarray]:
+    """Position (2,) m and velocity (2,) m/s at time ``at`` (s) from a short tail of samples.
+
+    times: (T,) s, T >= 2; positions: (T, 2) m. A slide at the known
+    deceleration ``friction * gravity``: a straight line in time gives the
+    direction, the deceleration is added back along it and a second line
+    gives the position and velocity at the tail's mid-time, slid on to ``at``.
+    """
+    times = np.asarray(times, dtype=np.float64)
+    positions = np.asarray(positions, dtype=np.float64)[:, :2]
+    mid = float(times.mean())
+    offsets = times - mid
+    slope, _ = np.polyfit(offsets, positions, 1)
+    speed = float(np.hypot(*slope))
+    if speed == 0.0:
+        return positions.mean(axis=0), np.zeros(2)
+    deceleration = friction * gravity
+    direction = slope / speed
+    slope, intercept = np.polyfit(offsets, positions + 0.5 * deceleration * offsets[:, None] ** 2 * direction, 1)
+    speed = float(np.hypot(*slope))
+    if speed == 0.0:
+        return intercept, np.zeros(2)
+    direction = slope / speed
+    ahead = at - mid
+    if deceleration > 0.0:
+        ahead = min(ahead, speed / deceleration)
+    return (intercept + direction * (speed * ahead - 0.5 * deceleration * ahead * ahead),
+            direction * (speed - deceleration * ahead))

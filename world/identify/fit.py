@@ -30,7 +30,7 @@ from threadpoolctl import threadpool_limits
 from world.contacts import footprint_distance
 from world.identify.jacobian import SecantJacobian
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, robust_residuals
-from world.identify.segments import CandidateCollision, find_candidate_collisions
+from world.identify.segments import CandidateCollision, find_candidate_collisions, is_precise
 from world.observations import ObjectTrack, Observations
 from world.rollout import footprint_of, simulate
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
@@ -845,16 +845,23 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
     observed = tuple(sorted({(min(c.bodies), max(c.bodies), c.frame) for c in candidates
                              if 0 <= c.frame < observations.num_frames}, key=lambda c: (c[2], c[0], c[1])))
     world = replace(world, provenance=provenance, anchor=anchor, observed_collisions=observed)
-    return with_replayed_collisions(world, config.simulator), report
+    precise = sorted(t.id for t in usable if is_precise(t))
+    decided = frozenset((a, b) for i, a in enumerate(precise) for b in precise[i + 1 :])
+    return with_replayed_collisions(world, config.simulator, decided), report
 
 
-def with_replayed_collisions(world: World, simulator: Callable[..., object] | None = None) -> World:
+def with_replayed_collisions(
+    world: World, simulator: Callable[..., object] | None = None, decided_pairs: frozenset[tuple[int, int]] = frozenset(),
+) -> World:
     """The world with its fitted replay's collisions in the video added to ``observed_collisions``.
 
     The track analysis (stage 1) misses a weak contact (a light touch of a
     heavy body); the fitted replay, which must explain every track, still
     makes that pair collide. A replayed collision of a pair with no recorded
-    one within the contact-episode gap is added at the replay's frame.
+    one within the contact-episode gap is added at the replay's frame, unless
+    the pair is in ``decided_pairs`` (sorted ids): two precise tracks whose
+    touches the track analysis saw by geometry (segments.is_precise), where
+    a replayed collision the video does not show is the fit's error.
     """
     replay = (simulator or simulate)(world, (), max(world.observed_frames, 1))
     gap = frames_in(CONTACT_EPISODE_GAP_SECONDS, world.fps)
@@ -863,6 +870,7 @@ def with_replayed_collisions(world: World, simulator: Callable[..., object] | No
         (min(e.bodies), max(e.bodies), e.frame)
         for e in replay.events
         if e.kind == "collision" and e.frame < world.observed_frames
+        and tuple(sorted(e.bodies)) not in decided_pairs
         and not any((a, b) == (min(e.bodies), max(e.bodies)) and abs(frame - e.frame) <= gap for a, b, frame in recorded)
     ]
     return replace(world, observed_collisions=tuple(recorded + added)) if added else world

@@ -5,6 +5,10 @@ a change of velocity of a body (a change point of its track) and, at that
 frame, another body whose footprint is close enough to touch it. Candidates
 only initialise the joint fit and split tracks into stretches for the local
 fits; the fitted world finds its own contacts by exact root finding.
+Precise tracks (oracle positions, ``is_precise``) need no change point: two
+of them collided where their footprints touched (``touch_events``), which
+also finds glancing contacts and contacts with a body at rest. They are
+also the world's record of observed collisions (World.observed_collisions).
 """
 
 from __future__ import annotations

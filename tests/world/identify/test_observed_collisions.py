@@ -19,10 +19,11 @@ from bench.metrics import EVENT_TOLERANCE_FRAMES
 from synth.annotate import annotation_document
 from synth.scene import ObjectSpec, SceneSpec, sample_camera
 from synth.simulate import simulate as simulate_in_mujoco
-from world.identify.fit import identify
+from world.identify.fit import identify, with_replayed_collisions
 from world.identify.segments import find_candidate_collisions, is_precise, touch_events
-from world.observations import Observations
+from world.observations import Observations, default_shape
 from world.rollout import simulate
+from world.types import Body, BodyState, World
 
 GRAZING_OFFSET = 0.398  # m between the spheres' paths: 2 mm less than the sum of their radii
 
@@ -99,3 +100,18 @@ def test_noisy_tracks_are_not_taken_as_precise(scene):
     noise = np.zeros_like(track.positions)
     noise[:, :2] = rng.normal(0.0, 0.004, (track.positions.shape[0], 2))  # 1 % of the object size
     assert not is_precise(replace(track, positions=track.positions + noise))
+
+
+def test_the_replay_adds_nothing_to_a_pair_geometry_decided():
+    shape = default_shape("cylinder")
+    world = World(
+        (Body(0, shape, BodyState((-1.0, 0.0, shape.rest_height), (2.0, 0.0, 0.0)), friction=0.1, color="red"),
+         Body(1, shape, BodyState((0.0, 0.0, shape.rest_height)), friction=0.1, color="blue")),
+        observed_frames=60, observed_collisions=(),
+    )
+    replayed = [(0, 1, e.frame) for e in simulate(world, (), 60).events if e.kind == "collision"]
+    assert len(replayed) == 1
+    # Undecided: the replay's collision is added (a light touch the change points missed) ...
+    assert with_replayed_collisions(world).observed_collisions == tuple(replayed)
+    # ... decided by geometry (two precise tracks saw no touch): the video is right, nothing is added.
+    assert with_replayed_collisions(world, decided_pairs=frozenset({(0, 1)})).observed_collisions == ()

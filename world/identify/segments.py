@@ -5,6 +5,10 @@ a change of velocity of a body (a change point of its track) and, at that
 frame, another body whose footprint is close enough to touch it. Candidates
 only initialise the joint fit and split tracks into stretches for the local
 fits; the fitted world finds its own contacts by exact root finding.
+Precise tracks (oracle positions, ``is_precise``) need no change point: two
+of them collided where their footprints touched (``touch_events``), which
+also finds glancing contacts and contacts with a body at rest. They are
+also the world's record of observed collisions (World.observed_collisions).
 """
 
 from __future__ import annotations
@@ -13,8 +17,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from world.footprint import footprint_gap
 from world.identify.local_fit import fit_slide
 from world.observations import ObjectTrack, Observations
+from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of
 
 # Footprints whose bounding circles come within this gap (metres) at a
 # change point may be touching. Cubes' bounding circles over-reach, so
@@ -44,6 +50,20 @@ MIN_APPROACH_SPEED = 0.1
 # the worst perceived error at a contact), are one object tracked twice (a
 # fragment track of perception), never a contact.
 INTERPENETRATION_TOLERANCE = 0.15
+# Tracks whose median |third difference| of plane positions is at most this
+# (m) are precise enough to see a touch: constant deceleration has no third
+# difference, so what is left is measurement error (about 4.5 x its standard
+# deviation). Oracle tracks (rounded to 0.1 mm) give ~0.1 mm; 1 % of an
+# object's size of noise gives ~12 mm.
+PRECISE_TRACK_JITTER = 0.002
+# Two precise tracks whose footprints (true sizes, cube yaw) come within this
+# gap (m), at a frame or between two (each body continuing its last frame's
+# motion), touch: a collision however little either velocity changes.
+# Covers the rounding of positions (0.1 mm) and of the yaw of a cube.
+TOUCH_GAP = 0.0015
+# Sub-frame times (share of a frame after each frame) at which the motion
+# continued from the frame is tested for a touch between two frames.
+SUB_FRAME_STEPS = (0.25, 0.5, 0.75)
 
 
 @dataclass(frozen=True)
@@ -257,21 +277,153 @@ def _side_velocity(
     return fit.state_at(at_time, gravity)[1]
 
 
+def is_precise(track: ObjectTrack) -> bool:
+    """True when the track's positions are precise enough for the touch test (PRECISE_TRACK_JITTER)."""
+    frames = track.frames[track.observed]
+    xy = track.positions[track.observed, :2]
+    jitter = []
+    for run in _runs(frames, max_gap=0):
+        if run.size >= 4:
+            rows = np.searchsorted(frames, run)
+            jitter.append(np.linalg.norm(np.diff(xy[rows], n=3, axis=0), axis=1))
+    return bool(jitter) and float(np.median(np.concatenate(jitter))) <= PRECISE_TRACK_JITTER
+
+
+def _dense(track: ObjectTrack, num_frames: int) -> tuple[np.ndarray, np.ndarray]:
+    """(num_frames, 3) observed positions (m, NaN where not observed) and (num_frames,) yaw (rad, 0 where unknown)."""
+    positions = np.full((num_frames, 3), np.nan)
+    yaw = np.zeros(num_frames)
+    use = track.observed & (track.frames < num_frames)
+    positions[track.frames[use]] = track.positions[use]
+    yaw[track.frames[use]] = np.nan_to_num(track.yaw[use])
+    return positions, yaw
+
+
+def _carried_touch(
+    first: ObjectTrack, second: ObjectTrack, pa: np.ndarray, ya: np.ndarray, pb: np.ndarray, yb: np.ndarray,
+    frames: np.ndarray, step: int,
+) -> np.ndarray:
+    """Share of a frame after which the pair, carried on from ``frames`` with the motion between
+    ``frames - step`` and ``frames``, first touches; NaN where it does not within SUB_FRAME_STEPS. (len(frames),).
+
+    The share is where the footprint gap crosses zero, interpolated linearly
+    between the last step still apart and the first touching one (the gap of
+    two bodies in straight motion is nearly linear over a fraction of a
+    frame), not the first touching step, which would put every hidden touch
+    late by up to a step.
+    """
+    shares = np.full(frames.size, np.nan)
+    previous_share = 0.0
+    previous_gap = footprint_gap(first.shape, pa[frames], ya[frames], second.shape, pb[frames], yb[frames])
+    for share in SUB_FRAME_STEPS:
+        ahead_a = pa[frames] + share * (pa[frames] - pa[frames - step])
+        ahead_b = pb[frames] + share * (pb[frames] - pb[frames - step])
+        gap = footprint_gap(first.shape, ahead_a, ya[frames], second.shape, ahead_b, yb[frames])
+        touch = (gap <= TOUCH_GAP) & np.isnan(shares)
+        closing = np.maximum(previous_gap - gap, 1e-12)
+        crossing = previous_share + (share - previous_share) * np.clip(previous_gap / closing, 0.0, 1.0)
+        shares[touch] = crossing[touch]
+        previous_share, previous_gap = share, gap
+    return shares
+
+
+def touch_times(first: ObjectTrack, second: ObjectTrack, num_frames: int) -> np.ndarray:
+    """Times (in frames, sorted) at which the pair's footprints touch (gap <= TOUCH_GAP).
+
+    Every frame both bodies are seen touching, and a touch hidden between two
+    frames k and k+1 that do not touch: each body continuing its motion from
+    k-1 to k (the motion before the contact carried forward), or its motion
+    from k+2 to k+1 (the motion after it carried back), overlaps there. A
+    carried motion must not itself span a contact of the pair (it would
+    overlap by the bounce): forward needs no touch in (k-1, k], backward none
+    at k+2. The backward test also sees a contact just before a body entered
+    the view, or one right after a third body set it moving. Yaw is held.
+    """
+    pa, ya = _dense(first, num_frames)
+    pb, yb = _dense(second, num_frames)
+    seen = np.isfinite(pa[:, 0]) & np.isfinite(pb[:, 0])
+    at = np.flatnonzero(seen)
+    touching = np.zeros(num_frames, dtype=bool)
+    if at.size == 0:
+        return np.zeros(0)
+    touching[at] = footprint_gap(first.shape, pa[at], ya[at], second.shape, pb[at], yb[at]) <= TOUCH_GAP
+    forward = np.full(num_frames, np.nan)  # share after k of a touch carried forward from k
+    backward = np.full(num_frames, np.nan)  # share before k+1 of a touch carried back from k+1
+    frames = np.flatnonzero(seen[1:] & seen[:-1]) + 1  # seen with the frame before
+    forward[frames] = _carried_touch(first, second, pa, ya, pb, yb, frames, 1)
+    frames = frames - 1  # seen with the frame after
+    backward[frames[frames >= 1] - 1] = _carried_touch(first, second, pa, ya, pb, yb, frames[frames >= 1], -1)
+    times = [float(k) for k in np.flatnonzero(touching)]
+    hidden_before = False  # a touch hidden in the previous interval
+    for k in range(num_frames):
+        # The interval (k, k+1); past the last frame only the forward test (a touch rounding to the last frame).
+        found = None
+        apart = not touching[k] and not (k + 1 < num_frames and touching[k + 1])
+        if apart and k >= 1 and not touching[k - 1] and not hidden_before and np.isfinite(forward[k]):
+            found = k + forward[k]
+        if apart and k + 2 < num_frames and not touching[k + 2] and np.isfinite(backward[k]):
+            found = min(found if found is not None else np.inf, k + 1 - backward[k])
+        if found is not None:
+            times.append(float(found))
+        hidden_before = found is not None
+    return np.array(sorted(times))
+
+
+def touch_events(first: ObjectTrack, second: ObjectTrack, num_frames: int, fps: float) -> list[int]:
+    """Frames where two precise tracks start touching (TOUCH_GAP): one per contact episode.
+
+    As the engine and MuJoCo's ground truth count them: a touch more than
+    CONTACT_EPISODE_GAP_SECONDS after the pair's previous touch is a new
+    collision, at the frame of its first (sub-frame) touch; a touch whose
+    frame is outside the video (it rounds to the frame after it) is not one.
+    """
+    episode_gap = CONTACT_EPISODE_GAP_SECONDS * fps  # frames
+    events: list[int] = []
+    previous = -np.inf
+    for time in touch_times(first, second, num_frames):
+        if time - previous > episode_gap:
+            frame = frame_of(time / fps, fps)
+            if 0 <= frame < num_frames:
+                events.append(frame)
+        previous = time
+    return events
+
+
 def find_candidate_collisions(
     observations: Observations, gravity: float = 9.81, friction_prior: float = 0.3
 ) -> list[CandidateCollision]:
-    """Change points matched to the closest touching partner; one candidate per pair and event."""
+    """Candidate collisions, one per pair and event.
+
+    A pair of precise tracks (``is_precise``) collides where their footprints
+    touch (``touch_events``): geometry sees every contact, a glancing one or
+    one with a body at rest included, and never a near miss. Other pairs:
+    change points matched to the closest touching partner, and pair events
+    (``approach_events``).
+    """
     fps = observations.fps
     tracks = {t.id: t for t in observations.objects}
+    precise = {t.id: is_precise(t) for t in observations.objects}
     points = {t.id: change_points(t, fps) for t in observations.objects}
     found: dict[tuple[tuple[int, int], int], None] = {}
+
+    def add(pair: tuple[int, int], frame: int) -> None:
+        if not any(p == pair and abs(f - frame) < MIN_SEPARATION for p, f in found):
+            found[(pair, frame)] = None
+
+    ids = sorted(tracks)
+    for i, first in enumerate(ids):
+        for second in ids[i + 1 :]:
+            if precise[first] and precise[second]:
+                for frame in touch_events(tracks[first], tracks[second], observations.num_frames, fps):
+                    add((first, second), frame)
     for body, frames in points.items():
         track = tracks[body]
         for frame in frames:
             touching = {
                 other_id: gap
                 for other_id, other in tracks.items()
-                if other_id != body and (gap := _gap(track, other, frame)) <= CONTACT_MARGIN
+                if other_id != body and not (precise[body] and precise[other_id])
+                and (gap := _gap(track, other, frame)) <= CONTACT_MARGIN
                 and not _one_object_twice(track, other, frame)
             }
             # Partners that felt the impulse too (a change point of their
@@ -280,18 +432,12 @@ def find_candidate_collisions(
             felt = [o for o in touching if any(abs(f - frame) < MIN_SEPARATION for f in points[o])]
             partners = felt or ([min(touching, key=touching.get)] if touching else [])
             for other_id in partners:
-                pair = (min(body, other_id), max(body, other_id))
-                if any(p == pair and abs(f - frame) < MIN_SEPARATION for p, f in found):
-                    continue
-                found[(pair, frame)] = None
-    ids = sorted(tracks)
+                add((min(body, other_id), max(body, other_id)), frame)
     for i, first in enumerate(ids):
         for second in ids[i + 1 :]:
-            for frame in approach_events(tracks[first], tracks[second], fps):
-                pair = (first, second)
-                if any(p == pair and abs(f - frame) < MIN_SEPARATION for p, f in found):
-                    continue
-                found[(pair, frame)] = None
+            if not (precise[first] and precise[second]):
+                for frame in approach_events(tracks[first], tracks[second], fps):
+                    add((first, second), frame)
     candidates = []
     for (pair, frame), _ in sorted(found.items(), key=lambda item: (item[0][1], item[0][0])):
         pre, post = [], []

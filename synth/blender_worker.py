@@ -3,8 +3,9 @@
     python -m synth.blender_worker scene.json    (run in the directory holding scene.json)
 
 Writes ``frame_NNNN.png`` (8-bit sRGB, Standard view transform) per frame into
-the working directory. The only module of ours that imports ``bpy``; it takes
-everything from the JSON (synth.blender.scene_description documents the keys)
+the working directory, and ``timings.json``: set-up and per-frame CPU and wall
+seconds of this process (bench/bench_blender.py reads them). The only module
+of ours that imports ``bpy``; it takes everything from the JSON (synth.blender.scene_description documents the keys)
 and uses no numpy, so bpy's numpy-1.x build does not matter here.
 """
 
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import json
 import sys
+import time
 from pathlib import Path
 
 import bpy  # first: importing bpy makes Blender's own modules (bmesh, mathutils) importable
@@ -198,6 +200,7 @@ def _objects(scene, description: dict) -> list[bpy.types.Object]:
 
 
 def main(path: str) -> None:
+    wall, cpu = time.perf_counter(), time.process_time()
     description = json.loads(Path(path).read_text())
     scene = _settings(description)
     _camera(scene, description["camera"])
@@ -206,13 +209,17 @@ def main(path: str) -> None:
         _light(scene, index, light)
     _floor(scene, description["floor"])
     objects = _objects(scene, description)
+    timings = {"setup_wall_s": time.perf_counter() - wall, "setup_cpu_s": time.process_time() - cpu, "frames": []}
     for frame, poses in enumerate(description["poses"]):
+        wall, cpu = time.perf_counter(), time.process_time()
         for obj, pose in zip(objects, poses):
             obj.matrix_world = Matrix(pose)
         scene.cycles.seed = frame  # fresh sampling noise per frame, as an animation render has
         scene.render.filepath = str(Path(f"frame_{frame:04d}.png").resolve())
         bpy.ops.render.render(write_still=True)
+        timings["frames"].append({"wall_s": time.perf_counter() - wall, "cpu_s": time.process_time() - cpu})
         print(f"frame {frame} done", file=sys.stderr, flush=True)
+    Path("timings.json").write_text(json.dumps(timings))
 
 
 if __name__ == "__main__":

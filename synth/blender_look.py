@@ -92,8 +92,8 @@ class BlenderFloor:
 @dataclass(frozen=True)
 class BlenderLight:
     """One light. ``kind`` "sun": parallel light from ``direction`` (3,) (unit, towards the
-    light), ``size_deg`` its angular diameter. ``kind`` "area": a square of side ``size``
-    m at ``distance`` m from the look-at point along ``direction``, facing it.
+    light), ``size`` its angular diameter in radians. ``kind`` "area": a square of side
+    ``size`` m at ``distance`` m from the look-at point along ``direction``, facing it.
     ``irradiance`` W/m^2 at the look-at point; ``tint`` (3,) linear colour, mean 1."""
 
     kind: str

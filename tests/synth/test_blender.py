@@ -17,6 +17,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 import synth.blender
 from physmind.cli import main
@@ -103,6 +104,7 @@ def _test_look(camera: Camera) -> BlenderLook:
                        paints=tuple(TEST_PAINTS.get(c, (0.5, 0.5, 0.5)) for c in COLORS))
 
 
+@pytest.mark.slow
 def test_blender_render_matches_mujoco_silhouettes():
     spec = _test_scene()
     sim = simulate(spec, horizon_frames=4)

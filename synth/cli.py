@@ -1,7 +1,7 @@
 """``physmind synth``: generate a CLEVRER-style dataset; ``physmind synth contact-sheet``: look at it.
 
     physmind synth --out DIR --scenes N --seed S [--start-index K] [--workers W] [--looks default|tune|heldout]
-                   [--renderer mujoco|povray]
+                   [--renderer mujoco|povray|blender]
     physmind synth contact-sheet DIR [--scenes 0,1,2] [--frames 0,40,80,127] [--png PATH]
 
 Heavy imports (MuJoCo, PyAV) happen inside the handlers.
@@ -39,10 +39,11 @@ def register(subparsers) -> None:
     )
     parser.add_argument(
         "--renderer",
-        choices=("mujoco", "povray"),
+        choices=("mujoco", "povray", "blender"),
         default="mujoco",
         help="mujoco (default: MuJoCo's OpenGL renderer) or povray (POV-Ray 3.7 ray tracer in its own look family, "
-        "needs the Debian package povray; masks stay MuJoCo's); see synth/povray.py",
+        "needs the Debian package povray; masks stay MuJoCo's; see synth/povray.py) or blender (Blender's Cycles "
+        "path tracer in its own look family, needs the bpy module: `make render`; see synth/blender.py)",
     )
     parser.set_defaults(handler=run_generate)
     inner = parser.add_subparsers(dest="synth_command", metavar="{contact-sheet}")
@@ -105,9 +106,13 @@ def run_generate(args: argparse.Namespace) -> int:
         from synth.povray import povray_path
 
         povray_path()  # a missing povray fails here, in one line, before any scene is simulated
+    elif renderer == "blender":
+        from synth.blender import require_bpy
+
+        require_bpy()  # a missing bpy fails here, in one line, before any scene is simulated
     # Fewer scenes than workers: the spare workers ray-trace frames of the same scene.
     scene_workers = min(args.workers, args.scenes)
-    render_processes = max(1, args.workers // scene_workers) if renderer == "povray" else 1
+    render_processes = max(1, args.workers // scene_workers) if renderer in ("povray", "blender") else 1
     args.out.mkdir(parents=True, exist_ok=True)
     jobs = [(str(args.out), args.seed, index, args.looks, renderer, render_processes)
             for index in range(args.start_index, args.start_index + args.scenes)]

@@ -19,6 +19,8 @@ from synth.annotate import (
     video_filename,
 )
 from synth.looks import look_seed_sequence, sample_look
+from synth.blender import render_scene_blender, scene_blender_look
+from synth.blender_look import blender_look_document
 from synth.povray import render_scene_povray, scene_povray_look
 from synth.povray_look import povray_look_document
 from synth.questions import scene_questions
@@ -31,7 +33,7 @@ SHARE_NEEDING_TWO_COLLISIONS = 0.9  # most scenes must show >= 2 collisions
 SHARE_NEEDING_FUTURE_COLLISION = 0.7  # most scenes need a collision after the video (predictive)
 MAX_SANE_SPEED = 8.0  # m/s; faster means a contact blew up: re-draw
 MAX_SANE_HEIGHT = 0.45  # m; objects must stay on the floor (centre at 0.2 m)
-RENDERERS = ("mujoco", "povray")  # synth.render (MuJoCo's OpenGL) or synth.povray (POV-Ray's ray tracer)
+RENDERERS = ("mujoco", "povray", "blender")  # synth.render (MuJoCo's OpenGL), synth.povray (POV-Ray), synth.blender (Cycles)
 
 
 @dataclass(frozen=True)
@@ -114,6 +116,8 @@ def generate_scene(out: Path, seed: int, index: int, looks: str = "default", ren
     povray runs) in the scene's POV-Ray look (synth.povray_look; camera and
     objects as ``looks`` draws them), the masks stay MuJoCo's segmentation of
     the same geometry, and the ground truth records the look under ``renderer``.
+    With "blender" the same holds with Cycles (synth.blender, look of
+    synth.blender_look; ``render_processes`` is its thread count).
     Returns the scene's questions.json entry and its statistics.
     """
     if renderer not in RENDERERS:
@@ -128,6 +132,10 @@ def generate_scene(out: Path, seed: int, index: int, looks: str = "default", ren
         pov_look = scene_povray_look(spec, seed, index)
         rgb = render_scene_povray(spec, sim, pov_look, processes=render_processes)
         ground_truth["renderer"] = {"name": "povray", "look": povray_look_document(pov_look)}
+    elif renderer == "blender":
+        blender_look = scene_blender_look(seed, index)
+        rgb = render_scene_blender(spec, sim, blender_look, threads=render_processes)
+        ground_truth["renderer"] = {"name": "blender", "look": blender_look_document(blender_look)}
     write_mp4(out / "videos" / video_filename(index), rgb, spec.fps, spec.look.crf)
     _dump(out / "annotations" / f"annotation_{index:05d}.json", annotation)
     _dump(out / "ground_truth" / f"scene_{index:05d}.json", ground_truth)

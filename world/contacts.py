@@ -47,6 +47,9 @@ PATCH_DEPTH = 1e-3
 # Passes of stopping impulses over a patch's centre and ends after an impact: each pass removes
 # energy; two points (the ends) settle within a few (the rest is below rounding at contact speeds).
 PATCH_END_PASSES = 4
+# kg m^2: floor of a yaw inertia in the impulse. An edited mass so small that mass x inertia-per-mass
+# underflows to 0 would divide by zero; at the floor the body still takes (almost) no impulse.
+MIN_YAW_INERTIA = 2.2250738585072014e-308  # the smallest normal float
 
 
 @dataclass(frozen=True)
@@ -802,7 +805,8 @@ def collision_impulse(
     and angular momentum about any point are conserved.
     """
     nx, ny = normal
-    (mi, mj), (inertia_i, inertia_j) = masses, yaw_inertias
+    (mi, mj) = masses
+    inertia_i, inertia_j = (max(inertia, MIN_YAW_INERTIA) for inertia in yaw_inertias)
     arm_i = (point[0] - centres[0][0]) * ny - (point[1] - centres[0][1]) * nx  # r_i x n
     arm_j = (point[0] - centres[1][0]) * ny - (point[1] - centres[1][1]) * nx
     lever_i = (point[0] - centres[0][0]) * nx + (point[1] - centres[0][1]) * ny  # r_i x t = r_i . n

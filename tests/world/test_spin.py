@@ -133,3 +133,13 @@ def test_a_corner_pushes_at_the_corner_and_a_nearly_flat_face_moves_the_patch_sm
     assert abs(tilts[0] - flat) < 0.02
     assert abs(tilts[0] - flat) <= abs(tilts[1] - flat) <= abs(tilts[2] - flat)
     assert PATCH_DEPTH / 0.4 > 1e-3
+
+
+def test_a_vanishing_mass_takes_no_impulse_and_no_division_by_zero():
+    # A set_mass edit can make mass x inertia-per-mass underflow to 0 (the tool server's fuzz found it).
+    tiny = 1e-320
+    response = collision_impulse((1.0, 0.0), (-0.2, 0.1), ((0.0, 0.0), (-0.4, 0.2)), ((0.0, 0.0), (2.0, 0.0)),
+                                 (0.0, 0.0), (tiny, 1.0), (0.0, 0.0267), restitution=0.7)  # inertia underflowed
+    values = [response.normal_impulse, response.yaw_rate_change_i, response.yaw_rate_change_j]
+    assert all(math.isfinite(v) for v in values)
+    assert abs(response.normal_impulse) < 1e-300

@@ -173,7 +173,7 @@ def evaluate_scene(root: Path, index: int, e2e: bool, build: bool = True) -> dic
         "switches": switches, "fragmented": fragmented, "errors": errors, "attributes": attribute_hits,
         "objects": len(true_ids), "tracks": len(pred_ids), "missed_objects": missed_objects,
         "timings": inter["timings"], "event_errors": event_errors, "event_signed": event_signed,
-        "look": json.loads((root / "ground_truth" / f"scene_{name}.json").read_text()).get("look") or {},
+        "condition": _condition(json.loads((root / "ground_truth" / f"scene_{name}.json").read_text())),
     }
     if e2e:
         relabelled = []
@@ -185,6 +185,19 @@ def evaluate_scene(root: Path, index: int, e2e: bool, build: bool = True) -> dic
         oracle = Observations.from_clevrer_annotation(root / "annotations" / f"annotation_{name}.json", camera=camera)
         result["e2e"] = {"perceived": _score(perceived, root, name), "oracle": _score(oracle, root, name)}
     return result
+
+
+def _condition(ground_truth: dict) -> str:
+    """The appearance condition a video was rendered in, for the per-condition table.
+
+    MuJoCo renders are named by their look's floor texture and shadows; POV-Ray and Blender renders by the renderer
+    and the floor kind of its own look (their MuJoCo look, also in the file, is not what the video shows).
+    """
+    renderer = ground_truth.get("renderer") or {}
+    if renderer.get("name") not in (None, "mujoco"):
+        return f"{renderer['name']}: {((renderer.get('look') or {}).get('floor') or {}).get('kind', 'default')} floor"
+    look = ground_truth.get("look") or {}
+    return f"{(look.get('floor') or {}).get('texture', 'default')} floor, {(look.get('light') or {}).get('shadows', 'default')} shadows"
 
 
 def _first(flags: np.ndarray) -> int:
@@ -284,9 +297,7 @@ def main(argv: list[str] | None = None) -> int:
         print(f"| machine load average (1, 5, 15 min) at the end | {' '.join(f'{x:.1f}' for x in os.getloadavg())} | 2 cores |")
     by_floor: dict[str, list[dict]] = {}
     for r in results:
-        look = r["look"]
-        key = f"{(look.get('floor') or {}).get('texture', 'default')} floor, {(look.get('light') or {}).get('shadows', 'default')} shadows"
-        by_floor.setdefault(key, []).append(r)
+        by_floor.setdefault(r.get("condition") or _condition({"look": r.get("look") or {}}), []).append(r)
     if len(by_floor) > 1:
         print("\nper condition: | condition | videos | objects | recall | switches | colour | shape | material |\n|---|---|---|---|---|---|---|---|")
         for key, group in sorted(by_floor.items()):

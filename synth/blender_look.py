@@ -23,13 +23,12 @@ the look-at point; lengths in metres in the world frame (z up); angles in degree
 
 from __future__ import annotations
 
-import colorsys
 import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from synth.looks import rounded
+from synth.looks import check_rgb, jittered_paint, rounded, uniform_in
 from world.types import COLORS
 
 BLENDER_LOOK_STREAM = 4  # [seed, index] scene, [.., 1] questions, [.., 2, family] synth.looks, [.., 3] POV-Ray, [.., 4] this
@@ -47,7 +46,6 @@ BLENDER_PAINT_HSV: dict[str, tuple[float, float, float]] = {
     "cyan": (184.0, 0.80, 0.78),
     "purple": (278.0, 0.72, 0.70),
 }
-PAINT_JITTER = {"hue_deg": 5.0, "saturation": 0.08, "value": 0.08}  # +- per scene and colour
 
 # Ranges drawn uniformly per scene.
 METAL_ROUGHNESS = (0.08, 0.3)  # Principled BSDF roughness with metallic 1
@@ -81,8 +79,8 @@ class BlenderFloor:
     def __post_init__(self):
         if self.kind not in BLENDER_FLOORS:
             raise ValueError(f"kind: expected one of {BLENDER_FLOORS}, got {self.kind!r}")
-        _check_rgb("rgb", self.rgb)
-        _check_rgb("rgb2", self.rgb2)
+        check_rgb("rgb", self.rgb)
+        check_rgb("rgb2", self.rgb2)
         if not self.scale > 0:
             raise ValueError(f"scale: expected > 0 m, got {self.scale!r}")
         if not 0.0 <= self.roughness <= 1.0:
@@ -138,13 +136,13 @@ class BlenderLook:
     def __post_init__(self):
         if not LIGHT_COUNT[0] <= len(self.lights) <= LIGHT_COUNT[1]:
             raise ValueError(f"lights: expected {LIGHT_COUNT[0]}-{LIGHT_COUNT[1]}, got {len(self.lights)}")
-        _check_rgb("background_rgb", self.background_rgb)
+        check_rgb("background_rgb", self.background_rgb)
         if self.background_strength < 0:
             raise ValueError(f"background_strength: expected >= 0, got {self.background_strength!r}")
         if len(self.paints) != len(COLORS):
             raise ValueError(f"paints: expected {len(COLORS)} colours, got {len(self.paints)}")
         for paint in self.paints:
-            _check_rgb("paints", paint)
+            check_rgb("paints", paint)
         if not 0.0 < self.metal_roughness < self.rubber_roughness <= 1.0:
             raise ValueError("roughness: expected 0 < metal < rubber <= 1")
         if not 0.0 <= self.rubber_specular <= 1.0:
@@ -155,45 +153,29 @@ class BlenderLook:
         return self.paints[COLORS.index(color)]
 
 
-def _check_rgb(name: str, value) -> None:
-    if len(value) != 3 or not all(0.0 <= v <= 1.0 for v in value):
-        raise ValueError(f"{name}: expected 3 values in [0, 1], got {value!r}")
-
-
 def blender_look_seed_sequence(seed: int, index: int) -> np.random.SeedSequence:
     return np.random.SeedSequence([seed, index, BLENDER_LOOK_STREAM])
 
 
-def _uniform(rng: np.random.Generator, low_high: tuple[float, float]) -> float:
-    return float(rng.uniform(*low_high))
-
-
-def _paint(rng: np.random.Generator, hsv: tuple[float, float, float]) -> tuple[float, float, float]:
-    hue = (hsv[0] + rng.uniform(-1, 1) * PAINT_JITTER["hue_deg"]) % 360.0
-    sat = hsv[1] if hsv[1] == 0 else float(np.clip(hsv[1] + rng.uniform(-1, 1) * PAINT_JITTER["saturation"], 0.0, 1.0))
-    val = float(np.clip(hsv[2] + rng.uniform(-1, 1) * PAINT_JITTER["value"], 0.0, 1.0))
-    return tuple(float(c) for c in colorsys.hsv_to_rgb(hue / 360.0, sat, val))
-
-
 def _floor(rng: np.random.Generator) -> BlenderFloor:
     kind = BLENDER_FLOORS[int(rng.integers(len(BLENDER_FLOORS)))]
-    value = _uniform(rng, (0.3, 0.8))
+    value = uniform_in(rng, (0.3, 0.8))
     tint = rng.uniform(-0.07, 0.07, 3)
     rgb = tuple(float(np.clip(value + t, 0.0, 1.0)) for t in tint)
-    contrast = _uniform(rng, (0.7, 0.9))
+    contrast = uniform_in(rng, (0.7, 0.9))
     scale = {"clevrer": (5.0, 11.0), "plain": (1.0, 1.0), "noise": (0.1, 0.6), "checker": (0.3, 1.0)}[kind]
-    return BlenderFloor(kind=kind, rgb=rgb, rgb2=tuple(float(c * contrast) for c in rgb), scale=_uniform(rng, scale),
-                        offset=(_uniform(rng, (-3.0, 3.0)), _uniform(rng, (-3.0, 3.0))),
-                        roughness=_uniform(rng, (0.4, 0.95)))
+    return BlenderFloor(kind=kind, rgb=rgb, rgb2=tuple(float(c * contrast) for c in rgb), scale=uniform_in(rng, scale),
+                        offset=(uniform_in(rng, (-3.0, 3.0)), uniform_in(rng, (-3.0, 3.0))),
+                        roughness=uniform_in(rng, (0.4, 0.95)))
 
 
 def _light(rng: np.random.Generator, kind: str, irradiance: float) -> BlenderLight:
-    azimuth, elevation = math.radians(rng.uniform(0.0, 360.0)), math.radians(_uniform(rng, LIGHT_ELEVATION_DEG))
+    azimuth, elevation = math.radians(rng.uniform(0.0, 360.0)), math.radians(uniform_in(rng, LIGHT_ELEVATION_DEG))
     direction = (math.cos(elevation) * math.cos(azimuth), math.cos(elevation) * math.sin(azimuth), math.sin(elevation))
-    warmth = _uniform(rng, (-1.0, 1.0))  # colour temperature, warm (+) to cool (-)
+    warmth = uniform_in(rng, (-1.0, 1.0))  # colour temperature, warm (+) to cool (-)
     tint = np.array([1.0 + 0.15 * warmth, 1.0, 1.0 - 0.18 * warmth]) * rng.uniform(0.95, 1.05, 3)
-    size = math.radians(_uniform(rng, SUN_ANGLE_DEG)) if kind == "sun" else _uniform(rng, AREA_SIZE)
-    distance = _uniform(rng, LIGHT_DISTANCE) if kind == "area" else 0.0
+    size = math.radians(uniform_in(rng, SUN_ANGLE_DEG)) if kind == "sun" else uniform_in(rng, AREA_SIZE)
+    distance = uniform_in(rng, LIGHT_DISTANCE) if kind == "area" else 0.0
     return BlenderLight(kind=kind, direction=direction, irradiance=irradiance,
                         tint=tuple(float(v) for v in tint / tint.mean()), size=size, distance=distance)
 
@@ -203,16 +185,16 @@ def sample_blender_look(rng: np.random.Generator) -> BlenderLook:
     floor = _floor(rng)
     count = int(rng.integers(LIGHT_COUNT[0], LIGHT_COUNT[1] + 1))
     key_kind = "sun" if rng.uniform() < KEY_SUN_SHARE else "area"
-    lights = [_light(rng, key_kind, _uniform(rng, KEY_IRRADIANCE))]
-    lights += [_light(rng, LIGHT_KINDS[int(rng.integers(2))], _uniform(rng, FILL_IRRADIANCE)) for _ in range(count - 1)]
-    background_value = _uniform(rng, (0.5, 1.0))
+    lights = [_light(rng, key_kind, uniform_in(rng, KEY_IRRADIANCE))]
+    lights += [_light(rng, LIGHT_KINDS[int(rng.integers(2))], uniform_in(rng, FILL_IRRADIANCE)) for _ in range(count - 1)]
+    background_value = uniform_in(rng, (0.5, 1.0))
     background_rgb = tuple(float(np.clip(background_value * f, 0, 1)) for f in rng.uniform(0.85, 1.1, 3))
-    metal_roughness = _uniform(rng, METAL_ROUGHNESS)
-    rubber_roughness = _uniform(rng, RUBBER_ROUGHNESS)
-    paints = tuple(_paint(rng, BLENDER_PAINT_HSV[c]) for c in COLORS)
+    metal_roughness = uniform_in(rng, METAL_ROUGHNESS)
+    rubber_roughness = uniform_in(rng, RUBBER_ROUGHNESS)
+    paints = tuple(jittered_paint(rng, BLENDER_PAINT_HSV[c]) for c in COLORS)
     return BlenderLook(floor=floor, lights=tuple(lights), background_rgb=background_rgb,
-                       background_strength=_uniform(rng, BACKGROUND_STRENGTH), metal_roughness=metal_roughness,
-                       rubber_roughness=rubber_roughness, rubber_specular=_uniform(rng, RUBBER_SPECULAR), paints=paints)
+                       background_strength=uniform_in(rng, BACKGROUND_STRENGTH), metal_roughness=metal_roughness,
+                       rubber_roughness=rubber_roughness, rubber_specular=uniform_in(rng, RUBBER_SPECULAR), paints=paints)
 
 
 def blender_look_document(look: BlenderLook) -> dict:

@@ -34,6 +34,7 @@ linear 0..1 RGB as MuJoCo takes them.
 
 from __future__ import annotations
 
+import colorsys
 import math
 from dataclasses import asdict, dataclass
 from importlib import resources
@@ -367,3 +368,28 @@ def look_document(look: Look) -> dict:
     if look.camera is not None:
         document["camera"]["height"] = rounded(look.camera.height)
     return document
+
+
+PAINT_JITTER = {"hue_deg": 5.0, "saturation": 0.08, "value": 0.08}  # +- per scene and colour (ray-traced looks)
+
+
+def check_rgb(name: str, value) -> None:
+    """Raise ValueError unless ``value`` is 3 floats in [0, 1] (a linear RGB colour)."""
+    if len(value) != 3 or not all(0.0 <= v <= 1.0 for v in value):
+        raise ValueError(f"{name}: expected 3 values in [0, 1], got {value!r}")
+
+
+def uniform_in(rng: np.random.Generator, low_high: tuple[float, float]) -> float:
+    """One float drawn uniformly from the closed range ``low_high``."""
+    return float(rng.uniform(*low_high))
+
+
+def jittered_paint(rng: np.random.Generator, hsv: tuple[float, float, float]) -> tuple[float, float, float]:
+    """RGB in [0, 1] of a paint centred on ``hsv`` (hue deg, saturation, value), jittered by PAINT_JITTER.
+
+    A grey (saturation 0) stays grey: only its value is jittered.
+    """
+    hue = (hsv[0] + rng.uniform(-1, 1) * PAINT_JITTER["hue_deg"]) % 360.0
+    sat = hsv[1] if hsv[1] == 0 else float(np.clip(hsv[1] + rng.uniform(-1, 1) * PAINT_JITTER["saturation"], 0.0, 1.0))
+    val = float(np.clip(hsv[2] + rng.uniform(-1, 1) * PAINT_JITTER["value"], 0.0, 1.0))
+    return tuple(float(c) for c in colorsys.hsv_to_rgb(hue / 360.0, sat, val))

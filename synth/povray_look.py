@@ -18,13 +18,12 @@ lengths in metres in the world frame (z up); angles in degrees.
 
 from __future__ import annotations
 
-import colorsys
 import math
 from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from synth.looks import rounded
+from synth.looks import check_rgb, jittered_paint, rounded, uniform_in
 from world.types import COLORS
 
 POVRAY_LOOK_STREAM = 3  # [seed, index] scene, [.., 1] questions, [.., 2, family] synth.looks, [.., 3] this look
@@ -32,7 +31,7 @@ POVRAY_LOOK_STREAM = 3  # [seed, index] scene, [.., 1] questions, [.., 2, family
 POVRAY_FLOORS = ("clevrer", "plain", "noise", "checker")
 
 # Paint of each colour name: (hue deg, saturation, value) centre, CLEVRER-like but
-# our own numbers; per scene each is jittered by PAINT_JITTER.
+# our own numbers; per scene each is jittered by synth.looks.PAINT_JITTER.
 POVRAY_PAINT_HSV: dict[str, tuple[float, float, float]] = {
     "gray": (0.0, 0.0, 0.40),
     "red": (2.0, 0.78, 0.70),
@@ -43,7 +42,6 @@ POVRAY_PAINT_HSV: dict[str, tuple[float, float, float]] = {
     "cyan": (181.0, 0.78, 0.80),
     "purple": (274.0, 0.75, 0.74),
 }
-PAINT_JITTER = {"hue_deg": 5.0, "saturation": 0.08, "value": 0.08}  # +- per scene and colour
 
 # Ranges drawn uniformly per scene.
 METAL_RANGES = {
@@ -83,8 +81,8 @@ class PovFloor:
     def __post_init__(self):
         if self.kind not in POVRAY_FLOORS:
             raise ValueError(f"kind: expected one of {POVRAY_FLOORS}, got {self.kind!r}")
-        _check_rgb("rgb", self.rgb)
-        _check_rgb("rgb2", self.rgb2)
+        check_rgb("rgb", self.rgb)
+        check_rgb("rgb2", self.rgb2)
         if not self.scale > 0:
             raise ValueError(f"scale: expected > 0 m, got {self.scale!r}")
         if not (0.0 <= self.specular <= 1.0 and 0.0 <= self.reflection <= 1.0):
@@ -145,12 +143,12 @@ class PovLook:
     def __post_init__(self):
         if not LIGHT_COUNT[0] <= len(self.lights) <= LIGHT_COUNT[1]:
             raise ValueError(f"lights: expected {LIGHT_COUNT[0]}-{LIGHT_COUNT[1]}, got {len(self.lights)}")
-        _check_rgb("sky_horizon", self.sky_horizon)
-        _check_rgb("sky_zenith", self.sky_zenith)
+        check_rgb("sky_horizon", self.sky_horizon)
+        check_rgb("sky_zenith", self.sky_zenith)
         if len(self.paints) != len(COLORS):
             raise ValueError(f"paints: expected {len(COLORS)} colours, got {len(self.paints)}")
         for paint in self.paints:
-            _check_rgb("paints", paint)
+            check_rgb("paints", paint)
         if self.metal.reflection <= 0 or self.rubber.reflection != 0:
             raise ValueError("metal must reflect (reflection > 0), rubber must not (reflection 0)")
 
@@ -159,54 +157,38 @@ class PovLook:
         return self.paints[COLORS.index(color)]
 
 
-def _check_rgb(name: str, value) -> None:
-    if len(value) != 3 or not all(0.0 <= v <= 1.0 for v in value):
-        raise ValueError(f"{name}: expected 3 values in [0, 1], got {value!r}")
-
-
 def povray_look_seed_sequence(seed: int, index: int) -> np.random.SeedSequence:
     return np.random.SeedSequence([seed, index, POVRAY_LOOK_STREAM])
-
-
-def _uniform(rng: np.random.Generator, low_high: tuple[float, float]) -> float:
-    return float(rng.uniform(*low_high))
-
-
-def _paint(rng: np.random.Generator, hsv: tuple[float, float, float]) -> tuple[float, float, float]:
-    hue = (hsv[0] + rng.uniform(-1, 1) * PAINT_JITTER["hue_deg"]) % 360.0
-    sat = hsv[1] if hsv[1] == 0 else float(np.clip(hsv[1] + rng.uniform(-1, 1) * PAINT_JITTER["saturation"], 0.0, 1.0))
-    val = float(np.clip(hsv[2] + rng.uniform(-1, 1) * PAINT_JITTER["value"], 0.0, 1.0))
-    return tuple(float(c) for c in colorsys.hsv_to_rgb(hue / 360.0, sat, val))
 
 
 def _floor(rng: np.random.Generator) -> PovFloor:
     kind = POVRAY_FLOORS[int(rng.integers(len(POVRAY_FLOORS)))]
     # A neutral-to-warm or cool grey, light or dark; the second tone close to it.
-    value = _uniform(rng, (0.35, 0.8))
+    value = uniform_in(rng, (0.35, 0.8))
     tint = rng.uniform(-0.06, 0.06, 3)
     rgb = tuple(float(np.clip(value + t, 0.0, 1.0)) for t in tint)
-    contrast = _uniform(rng, (0.75, 0.92))
+    contrast = uniform_in(rng, (0.75, 0.92))
     rgb2 = tuple(float(c * contrast) for c in rgb)
     scale = {"clevrer": (6.0, 12.0), "plain": (1.0, 1.0), "noise": (0.05, 0.4), "checker": (0.4, 1.2)}[kind]
     return PovFloor(
         kind=kind,
         rgb=rgb,
         rgb2=rgb2,
-        scale=_uniform(rng, scale),
-        offset=(_uniform(rng, (-3.0, 3.0)), _uniform(rng, (-3.0, 3.0))),
-        specular=_uniform(rng, (0.0, 0.3)),
-        reflection=_uniform(rng, (0.0, 0.08)),
+        scale=uniform_in(rng, scale),
+        offset=(uniform_in(rng, (-3.0, 3.0)), uniform_in(rng, (-3.0, 3.0))),
+        specular=uniform_in(rng, (0.0, 0.3)),
+        reflection=uniform_in(rng, (0.0, 0.08)),
     )
 
 
 def _light(rng: np.random.Generator, target: tuple[float, float, float], intensity: float) -> PovLight:
-    azimuth, elevation = math.radians(rng.uniform(0.0, 360.0)), math.radians(_uniform(rng, LIGHT_ELEVATION_DEG))
-    distance = _uniform(rng, LIGHT_DISTANCE)
+    azimuth, elevation = math.radians(rng.uniform(0.0, 360.0)), math.radians(uniform_in(rng, LIGHT_ELEVATION_DEG))
+    distance = uniform_in(rng, LIGHT_DISTANCE)
     offset = distance * np.array([math.cos(elevation) * math.cos(azimuth), math.cos(elevation) * math.sin(azimuth), math.sin(elevation)])
     # Colour temperature from warm to cool, normalised to the intensity.
-    warmth = _uniform(rng, (-1.0, 1.0))
+    warmth = uniform_in(rng, (-1.0, 1.0))
     tint = np.array([1.0 + 0.12 * warmth, 1.0, 1.0 - 0.15 * warmth]) * rng.uniform(0.95, 1.05, 3)
-    area = _uniform(rng, AREA_LIGHT_SIZE) if rng.uniform() < AREA_LIGHT_SHARE else 0.0
+    area = uniform_in(rng, AREA_LIGHT_SIZE) if rng.uniform() < AREA_LIGHT_SHARE else 0.0
     return PovLight(
         position=tuple(float(v) for v in np.asarray(target) + offset),
         rgb=tuple(float(v) for v in intensity * tint / tint.mean()),
@@ -218,19 +200,19 @@ def sample_povray_look(rng: np.random.Generator, target: tuple[float, float, flo
     """Draw a POV-Ray look; ``target`` (3,) m is the camera's look-at point (lights aim around it)."""
     floor = _floor(rng)
     count = int(rng.integers(LIGHT_COUNT[0], LIGHT_COUNT[1] + 1))
-    lights = [_light(rng, target, _uniform(rng, KEY_INTENSITY))]
-    lights += [_light(rng, target, _uniform(rng, EXTRA_INTENSITY)) for _ in range(count - 1)]
-    zenith_value = _uniform(rng, (0.3, 0.9))
+    lights = [_light(rng, target, uniform_in(rng, KEY_INTENSITY))]
+    lights += [_light(rng, target, uniform_in(rng, EXTRA_INTENSITY)) for _ in range(count - 1)]
+    zenith_value = uniform_in(rng, (0.3, 0.9))
     sky_zenith = tuple(float(np.clip(zenith_value * f, 0, 1)) for f in rng.uniform(0.8, 1.1, 3))
-    sky_horizon = tuple(float(np.clip(_uniform(rng, (0.6, 1.0)) * f, 0, 1)) for f in rng.uniform(0.9, 1.05, 3))
-    metal = PovFinish(reflection=_uniform(rng, METAL_RANGES["reflection"]), body=_uniform(rng, METAL_RANGES["body"]),
-                      diffuse=_uniform(rng, METAL_RANGES["diffuse"]), specular=_uniform(rng, METAL_RANGES["specular"]),
-                      roughness=_uniform(rng, METAL_RANGES["roughness"]))
-    rubber = PovFinish(reflection=0.0, body=1.0, diffuse=_uniform(rng, RUBBER_RANGES["diffuse"]),
-                       specular=_uniform(rng, RUBBER_RANGES["specular"]), roughness=_uniform(rng, RUBBER_RANGES["roughness"]))
-    paints = tuple(_paint(rng, POVRAY_PAINT_HSV[c]) for c in COLORS)
+    sky_horizon = tuple(float(np.clip(uniform_in(rng, (0.6, 1.0)) * f, 0, 1)) for f in rng.uniform(0.9, 1.05, 3))
+    metal = PovFinish(reflection=uniform_in(rng, METAL_RANGES["reflection"]), body=uniform_in(rng, METAL_RANGES["body"]),
+                      diffuse=uniform_in(rng, METAL_RANGES["diffuse"]), specular=uniform_in(rng, METAL_RANGES["specular"]),
+                      roughness=uniform_in(rng, METAL_RANGES["roughness"]))
+    rubber = PovFinish(reflection=0.0, body=1.0, diffuse=uniform_in(rng, RUBBER_RANGES["diffuse"]),
+                       specular=uniform_in(rng, RUBBER_RANGES["specular"]), roughness=uniform_in(rng, RUBBER_RANGES["roughness"]))
+    paints = tuple(jittered_paint(rng, POVRAY_PAINT_HSV[c]) for c in COLORS)
     return PovLook(floor=floor, lights=tuple(lights), sky_horizon=sky_horizon, sky_zenith=sky_zenith,
-                   ambient=_uniform(rng, AMBIENT_RANGE), metal=metal, rubber=rubber, paints=paints)
+                   ambient=uniform_in(rng, AMBIENT_RANGE), metal=metal, rubber=rubber, paints=paints)
 
 
 def povray_look_document(look: PovLook) -> dict:

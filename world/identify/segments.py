@@ -306,6 +306,7 @@ def precise_tracks(observations: Observations) -> frozenset[int]:
     A track is judged on its moving windows (``_jitter``); one with fewer than MIN_MOVING_WINDOWS
     (an object at rest most of the video) by the moving windows of all the tracks, which one
     measurement process made (perception, an annotation); when nothing moves, by all its windows.
+    A track without a window of its own (never 4 consecutive samples) is not precise.
     """
     measured = {t.id: _jitter(t) for t in observations.objects}
     pooled = np.concatenate([jitter[moving] for jitter, moving in measured.values()] + [np.zeros(0)])
@@ -313,10 +314,10 @@ def precise_tracks(observations: Observations) -> frozenset[int]:
     for track_id, (jitter, moving) in measured.items():
         if moving.sum() >= MIN_MOVING_WINDOWS:
             evidence = jitter[moving]
-        elif pooled.size >= MIN_MOVING_WINDOWS:
+        elif jitter.size and pooled.size >= MIN_MOVING_WINDOWS:
             evidence = pooled
         else:
-            evidence = jitter
+            evidence = jitter  # no window of its own (under 4 consecutive samples): never precise
         if evidence.size and float(np.median(evidence)) <= PRECISE_TRACK_JITTER:
             precise.add(track_id)
     return frozenset(precise)

@@ -127,6 +127,19 @@ def test_a_resting_stretch_repeated_exactly_does_not_make_a_noisy_track_precise(
     assert resting.id in precise_tracks(exact)
 
 
+def test_a_track_seen_on_too_few_frames_to_judge_is_not_precise(scene):
+    """An object seen on 3 frames (it entered at the end) has no window of its own; among exact
+    tracks it is still not precise, and the fit builds the world (a touch test on it split its
+    one stretch away and the fit failed)."""
+    _, observations = scene
+    track = observations.objects[1]
+    glimpse = replace(track, weights=np.where(track.frames >= track.frames[-3], track.weights, 0.0))
+    seen = replace(observations, objects=(observations.objects[0], glimpse, *observations.objects[2:]))
+    assert glimpse.id not in precise_tracks(seen)
+    world, _ = identify(seen)
+    assert len(world.bodies) == len(observations.objects)
+
+
 def test_the_replay_adds_nothing_to_a_pair_geometry_decided():
     shape = default_shape("cylinder")
     world = World(

@@ -30,15 +30,14 @@ the fitted replay), causes 1, 2, 4, 5, 7, 8.
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
 import numpy as np
 
 from bench.bench_identify import STILL_MOVING_SPEED
-from bench.metrics import EVENT_TOLERANCE_FRAMES, GroundTruth, rollout_collisions
-from bench.runner import dataset_annotations, print_and_save, run_with_progress
+from bench.metrics import EVENT_TOLERANCE_FRAMES, GroundTruth, rollout_collisions, unmatched_events
+from bench.runner import miss_report_main
 from world.identify.fit import identify
 from world.io import world_from_dict, world_to_dict
 from world.observations import Observations
@@ -49,19 +48,6 @@ TIMING_FRAMES = 25  # frames: same pair this close (beyond the tolerance) = "tim
 NEAR_MISS = 0.05  # m
 REPEAT_FRAMES = 40  # frames: the pair touched this shortly before in the side with the event = "repeated touch"
 CAUSES = ("never seen", "seen late", "history changed", "repeated touch", "timing", "hit at rest", "near miss", "far off")
-
-
-def _unmatched(side: list, other: list, tolerance: int) -> list:
-    """Events of ``side`` with no event of the same pair in ``other`` within ``tolerance`` (greedy, one-to-one)."""
-    pool = list(other)
-    left = []
-    for pair, frame in sorted(side, key=lambda item: item[1]):
-        candidates = [k for k, (p, f) in enumerate(pool) if p == pair and abs(f - frame) <= tolerance]
-        if candidates:
-            pool.pop(min(candidates, key=lambda k: abs(pool[k][1] - frame)))
-        else:
-            left.append((pair, frame))
-    return left
 
 
 def _centre_distance(positions: np.ndarray, columns: dict, pair: tuple[int, int], frames: np.ndarray) -> np.ndarray:
@@ -94,8 +80,8 @@ def _scene_rows(task: tuple[Path, Path | None, Path | None]) -> list[dict]:
     truth_events = list(truth.collisions)
     in_video = lambda events: [e for e in events if e[1] <= last]  # noqa: E731
     after = lambda events: [e for e in events if e[1] > last]  # noqa: E731
-    observed_wrong = (_unmatched(in_video(world_events), in_video(truth_events), EVENT_TOLERANCE_FRAMES)
-                      + _unmatched(in_video(truth_events), in_video(world_events), EVENT_TOLERANCE_FRAMES))
+    observed_wrong = (unmatched_events(in_video(world_events), in_video(truth_events), EVENT_TOLERANCE_FRAMES)
+                      + unmatched_events(in_video(truth_events), in_video(world_events), EVENT_TOLERANCE_FRAMES))
     history_bodies = {b for pair, _ in observed_wrong for b in pair}
 
     def cause(pair, frame, kind, window: str) -> tuple[str, float]:
@@ -127,20 +113,13 @@ def _scene_rows(task: tuple[Path, Path | None, Path | None]) -> list[dict]:
     rows = []
     for window, pick in (("video", in_video), ("future", after)):
         for kind, side, other in (("miss", truth_events, world_events), ("invented", world_events, truth_events)):
-            for pair, frame in _unmatched(pick(side), pick(other), EVENT_TOLERANCE_FRAMES):
+            for pair, frame in unmatched_events(pick(side), pick(other), EVENT_TOLERANCE_FRAMES):
                 name, gap = cause(pair, frame, kind, window)
                 rows.append({"scene": int(index), "window": window, "kind": kind, "pair": list(pair), "frame": int(frame),
                              "cause": name, "gap_m": gap})
         rows.append({"scene": int(index), "window": window, "kind": "counts",
                      "mujoco": len(pick(truth_events)), "world": len(pick(world_events))})
     return rows
-
-
-def _safe(task) -> list[dict]:
-    try:
-        return _scene_rows(task)
-    except Exception as error:  # noqa: BLE001 - the table reports failures
-        return [{"scene": task[0].stem, "kind": "error", "error": f"{type(error).__name__}: {error}"}]
 
 
 def table(rows: list[dict]) -> list[str]:
@@ -162,19 +141,7 @@ def table(rows: list[dict]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("dataset", type=Path)
-    parser.add_argument("--scenes", type=int, default=None)
-    parser.add_argument("--workers", type=int, default=2)
-    parser.add_argument("--worlds", type=Path, default=None, help="read fitted worlds (world_XXXXX.json) from here when present")
-    parser.add_argument("--save-worlds", type=Path, default=None, help="write the fitted worlds here")
-    parser.add_argument("--json", type=Path, default=None, help="write every miss / invention here")
-    args = parser.parse_args(argv)
-    annotations = dataset_annotations(args.dataset, args.scenes)
-    tasks = [(a, args.worlds, args.save_worlds) for a in annotations]
-    rows = [row for scene_rows in run_with_progress(_safe, tasks, args.workers, "scenes") for row in scene_rows]
-    print_and_save(table(rows), rows, args.json)
-    return 0
+    return miss_report_main(argv, __doc__.split("\n\n")[0], _scene_rows, table, workers=2)
 
 
 if __name__ == "__main__":

@@ -33,14 +33,13 @@ too) is reported apart from ``in record`` (the fit had it and lost it).
 
 from __future__ import annotations
 
-import argparse
 import json
 from pathlib import Path
 
 import numpy as np
 
-from bench.metrics import EVENT_TOLERANCE_FRAMES, GroundTruth, match_events, rollout_collisions
-from bench.runner import dataset_annotations, print_and_save, run_with_progress
+from bench.metrics import EVENT_TOLERANCE_FRAMES, GroundTruth, match_events, rollout_collisions, unmatched_events
+from bench.runner import miss_report_main
 from world.footprint import footprint_gap
 from world.identify.fit import identify
 from world.identify.segments import MIN_DELTA_V, MIN_SEPARATION, WINDOW
@@ -53,19 +52,6 @@ REPEAT_FRAMES = 25
 BETWEEN_FRAMES_GAP = 0.01  # m
 CAUSES = ("out of view", "video edge", "wrong pair", "simultaneous", "repeat", "body at rest", "glancing",
           "between frames", "other")
-
-
-def _unmatched(side: list, other: list, tolerance: int = EVENT_TOLERANCE_FRAMES) -> list:
-    """Events of ``side`` with no event of the same pair in ``other`` within ``tolerance`` (greedy, one-to-one)."""
-    pool = list(other)
-    left = []
-    for pair, frame in sorted(side, key=lambda item: item[1]):
-        found = [k for k, (p, f) in enumerate(pool) if p == pair and abs(f - frame) <= tolerance]
-        if found:
-            pool.pop(min(found, key=lambda k: abs(pool[k][1] - frame)))
-        else:
-            left.append((pair, frame))
-    return left
 
 
 def _truth_speed_change(truth: GroundTruth, column: int, frame: int, fps: float) -> tuple[float, float]:
@@ -139,25 +125,18 @@ def _scene_rows(task: tuple[Path, Path | None, Path | None]) -> list[dict]:
     rows = [{"scene": int(index), "kind": "counts", "mujoco": len(truth_events),
              "record": [match_events(record, truth_events).true_positives, len(record)],
              "replay": [match_events(replay, truth_events).true_positives, len(replay)]}]
-    record_misses = _unmatched(truth_events, record)
+    record_misses = unmatched_events(truth_events, record)
     for side, events in (("record", record), ("replay", replay)):
-        for pair, frame in _unmatched(truth_events, events):
+        for pair, frame in unmatched_events(truth_events, events):
             row = {"scene": int(index), "kind": "miss", "side": side, "pair": list(pair), "frame": int(frame),
                    "cause": _cause(pair, frame, truth, observations, events, truth_events),
                    "gap_m": _track_gap(observations, pair, frame)}
             if side == "replay":
                 row["in_record"] = (pair, frame) not in record_misses
             rows.append(row)
-        for pair, frame in _unmatched(events, truth_events):
+        for pair, frame in unmatched_events(events, truth_events):
             rows.append({"scene": int(index), "kind": "invented", "side": side, "pair": list(pair), "frame": int(frame)})
     return rows
-
-
-def _safe(task) -> list[dict]:
-    try:
-        return _scene_rows(task)
-    except Exception as error:  # noqa: BLE001 - the table reports failures
-        return [{"scene": task[0].stem, "kind": "error", "error": f"{type(error).__name__}: {error}"}]
 
 
 def table(rows: list[dict]) -> list[str]:
@@ -182,18 +161,7 @@ def table(rows: list[dict]) -> list[str]:
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("dataset", type=Path)
-    parser.add_argument("--scenes", type=int, default=None)
-    parser.add_argument("--workers", type=int, default=1)
-    parser.add_argument("--worlds", type=Path, default=None, help="read fitted worlds (world_XXXXX.json) from here when present")
-    parser.add_argument("--save-worlds", type=Path, default=None, help="write the fitted worlds here")
-    parser.add_argument("--json", type=Path, default=None, help="write every miss / invention here")
-    args = parser.parse_args(argv)
-    tasks = [(a, args.worlds, args.save_worlds) for a in dataset_annotations(args.dataset, args.scenes)]
-    rows = [row for scene_rows in run_with_progress(_safe, tasks, args.workers, "scenes") for row in scene_rows]
-    print_and_save(table(rows), rows, args.json)
-    return 0
+    return miss_report_main(argv, __doc__.split("\n\n")[0], _scene_rows, table, workers=1)
 
 
 if __name__ == "__main__":

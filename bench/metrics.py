@@ -44,20 +44,31 @@ class PrecisionRecall:
         )
 
 
+def unmatched_events(
+    side: Sequence[tuple[tuple[int, int], int]],
+    other: Sequence[tuple[tuple[int, int], int]],
+    tolerance: int = EVENT_TOLERANCE_FRAMES,
+) -> list[tuple[tuple[int, int], int]]:
+    """Events of ``side`` with no event of the same pair in ``other`` within ``tolerance`` frames
+    (greedy one-to-one, in time order, each taking the nearest free match)."""
+    pool = list(other)
+    left = []
+    for pair, frame in sorted(side, key=lambda item: item[1]):
+        candidates = [k for k, (p, f) in enumerate(pool) if p == pair and abs(f - frame) <= tolerance]
+        if candidates:
+            pool.pop(min(candidates, key=lambda k: abs(pool[k][1] - frame)))
+        else:
+            left.append((pair, frame))
+    return left
+
+
 def match_events(
     predicted: Sequence[tuple[tuple[int, int], int]],
     actual: Sequence[tuple[tuple[int, int], int]],
     tolerance: int = EVENT_TOLERANCE_FRAMES,
 ) -> PrecisionRecall:
     """Greedy one-to-one matching of (pair, frame) events with the same pair within ``tolerance`` frames."""
-    unmatched = list(actual)
-    hits = 0
-    for pair, frame in sorted(predicted, key=lambda item: item[1]):
-        candidates = [k for k, (p, f) in enumerate(unmatched) if p == pair and abs(f - frame) <= tolerance]
-        if candidates:
-            best = min(candidates, key=lambda k: abs(unmatched[k][1] - frame))
-            unmatched.pop(best)
-            hits += 1
+    hits = len(predicted) - len(unmatched_events(predicted, actual, tolerance))
     return PrecisionRecall(hits, len(predicted), len(actual))
 
 

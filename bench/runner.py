@@ -3,8 +3,10 @@ the annotated scenes of a dataset, and a table printed with its rows saved as JS
 
 from __future__ import annotations
 
+import argparse
 import json
 import time
+from functools import partial
 from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
@@ -41,3 +43,30 @@ def print_and_save(lines: Iterable[str], rows: Any, json_path: Path | None) -> N
         print(line)
     if json_path:
         json_path.write_text(json.dumps(rows, indent=1))
+
+
+def _rows_or_error(scene_rows: Callable[[Any], list[dict]], task: tuple) -> list[dict]:
+    """``scene_rows(task)``, or one error row naming the scene (task[0], an annotation path)."""
+    try:
+        return scene_rows(task)
+    except Exception as error:  # noqa: BLE001 - the table reports failures
+        return [{"scene": task[0].stem, "kind": "error", "error": f"{type(error).__name__}: {error}"}]
+
+
+def miss_report_main(argv: list[str] | None, description: str, scene_rows: Callable[[Any], list[dict]],
+                     table: Callable[[list[dict]], list[str]], workers: int) -> int:
+    """The command line of the per-scene miss reports (bench_future_misses, bench_observed_misses):
+    ``scene_rows((annotation, worlds dir, save-worlds dir))`` per scene on ``workers`` processes by
+    default, then ``table(rows)`` printed and the rows saved with --json."""
+    parser = argparse.ArgumentParser(description=description)
+    parser.add_argument("dataset", type=Path)
+    parser.add_argument("--scenes", type=int, default=None)
+    parser.add_argument("--workers", type=int, default=workers)
+    parser.add_argument("--worlds", type=Path, default=None, help="read fitted worlds (world_XXXXX.json) from here when present")
+    parser.add_argument("--save-worlds", type=Path, default=None, help="write the fitted worlds here")
+    parser.add_argument("--json", type=Path, default=None, help="write every miss / invention here")
+    args = parser.parse_args(argv)
+    tasks = [(a, args.worlds, args.save_worlds) for a in dataset_annotations(args.dataset, args.scenes)]
+    rows = [row for scene in run_with_progress(partial(_rows_or_error, scene_rows), tasks, args.workers, "scenes") for row in scene]
+    print_and_save(table(rows), rows, args.json)
+    return 0

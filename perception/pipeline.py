@@ -168,7 +168,8 @@ class PrimitiveLifter:
             states[source.id], scores_of[source.id] = merged, pooled
             return _redecide_attributes(merged, pooled, frames, segments)
 
-        return _renumber(_associate(lifted, self.size, appearance, explained=explained, decide=decide))
+        associated = _associate(lifted, self.size, appearance, explained=explained, decide=decide)
+        return _renumber(_untangle_contacts(associated, self.size, appearance))
 
 
 def mean_overlaps(scores: dict[str, list[float]]) -> dict[str, float]:
@@ -419,6 +420,25 @@ def _join(group: list[LiftedTrack], appearance: dict[int, np.ndarray], decide=No
     return joined
 
 
+def _overlap(a: LiftedTrack, b: LiftedTrack) -> bool:
+    return bool(np.intersect1d(a.frames, b.frames).size)
+
+
+def _close_frames(a: LiftedTrack, b: LiftedTrack, size: float) -> int:
+    """Common frames where two tracklets' centres are closer than one object size, when that is most
+    of their common frames (two solid objects cannot be that close: one object tracked twice); else 0."""
+    common, ia, ib = np.intersect1d(a.frames, b.frames, return_indices=True)
+    if common.size == 0:
+        return 0
+    close = np.linalg.norm(a.positions[ia, :2] - b.positions[ib, :2], axis=1) < size
+    return int(close.sum()) if close.mean() > 0.5 else 0
+
+
+def _same_object(first: list[LiftedTrack], second: list[LiftedTrack], size: float) -> bool:
+    """No tracklet of one group is seen apart from one of the other on their common frames."""
+    return all(not _overlap(a, b) or _close_frames(a, b, size) for a in first for b in second)
+
+
 def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.ndarray] | None = None,
                explained=None, decide=None) -> list[LiftedTrack]:
     """Global association of tracklets over the whole video.
@@ -439,17 +459,22 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
     appearance = dict(appearance) if appearance is not None else {t.id: _palette_appearance(t.attributes.color) for t in lifted}
     groups: list[list[LiftedTrack]] = []
     for track in sorted(lifted, key=_support, reverse=True):
-        for group in groups:
-            anchor = group[0]
-            common, ia, ib = np.intersect1d(track.frames, anchor.frames, return_indices=True)
-            if common.size == 0:
-                continue
-            gaps = np.linalg.norm(track.positions[ia, :2] - anchor.positions[ib, :2], axis=1)
-            if np.mean(gaps < size) > 0.5 or (explained is not None and explained(track, anchor)):
-                group.append(track)
-                break
-        else:
+        # A group takes the tracklet when it is close to its best tracklet, or to another of its tracklets
+        # and not seen apart from the best one (a piece of it that another piece bridges).
+        closeness = [_close_frames(track, g[0], size) or (max(_close_frames(track, m, size) for m in g) if _same_object([track], g[:1], size) else 0)
+                     for g in groups]
+        matches = [g for g, close in zip(groups, closeness) if close or (explained is not None and _overlap(track, g[0]) and explained(track, g[0]))]
+        if not matches:
             groups.append([track])
+            continue
+        best = max(matches, key=lambda g: closeness[next(k for k, h in enumerate(groups) if h is g)])
+        best.append(track)
+        # A piece that duplicates two groups that never stand apart (one object seen before and after
+        # a contact as two tracklets) makes them one object: the piece alone would keep them apart.
+        for other in matches:
+            if other is not best and _same_object(best, other, size):
+                best.extend(other)
+                groups.remove(other)
     kept = [_join(group, appearance, decide) if len(group) > 1 else group[0] for group in groups]
 
     count = len(kept)
@@ -471,6 +496,132 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
             chain.append(kept[k])
         result.append(_join(chain, appearance, decide) if len(chain) > 1 else chain[0])
     return result
+
+
+CLEAN_WEIGHT = 0.65  # a sample at least this good was fitted on a segment of its own (touching: x 0.6, split: x 0.3)
+CONTACT_SIZES = 3.0  # a contact episode of two tracks brings their centres closer than this many object sizes
+CONTACT_WINDOW = 4  # clean samples of a track next to a contact that give its motion ...
+WINDOW_SPAN = 10  # ... taken within this many frames of the contact
+MAX_CONTACT_FRAMES = 20  # longer episodes are left alone (friction bends a straight-line extrapolation)
+SWAP_MARGIN = 0.5  # object sizes: the crossed assignment must join the motions this much better
+
+
+def _line_at(track: LiftedTrack, rows: np.ndarray, frame: float) -> np.ndarray:
+    """(2,) m: the straight-line (constant velocity) fit of ``track``'s samples at ``rows``, evaluated at ``frame``."""
+    frames = track.frames[rows].astype(float)
+    if frames.size < 2 or np.ptp(frames) == 0:
+        return track.positions[rows, :2].mean(axis=0)
+    slope, intercept = np.polyfit(frames - frames.mean(), track.positions[rows, :2], 1)
+    return intercept + slope * (frame - frames.mean())
+
+
+def _sides(track: LiftedTrack, first: int, last: int) -> tuple[np.ndarray, np.ndarray] | None:
+    """Rows of the track's CONTACT_WINDOW clean samples before its own unclean run around frames
+    [first, last] and after it (within WINDOW_SPAN frames); None when either side is too thin."""
+    clean = track.weights >= CLEAN_WEIGHT
+    before = np.flatnonzero(clean & (track.frames < first) & (track.frames >= first - WINDOW_SPAN))[-CONTACT_WINDOW:]
+    after = np.flatnonzero(clean & (track.frames > last) & (track.frames <= last + WINDOW_SPAN))[:CONTACT_WINDOW]
+    if before.size < 3 or after.size < 3:
+        return None
+    return before, after
+
+
+def _contact_episodes(a: LiftedTrack, b: LiftedTrack, size: float) -> list[tuple[int, int]]:
+    """(first, last) frame of each run of frames where two tracks are not both cleanly seen (a merged
+    or split segment, a lost track) that brings them within CONTACT_SIZES sizes (at most
+    MAX_CONTACT_FRAMES long, between two frames where both are)."""
+    common, ia, ib = np.intersect1d(a.frames, b.frames, return_indices=True)
+    clean_frames = common[(a.weights[ia] >= CLEAN_WEIGHT) & (b.weights[ib] >= CLEAN_WEIGHT)]
+    episodes = []
+    for k in range(clean_frames.size - 1):
+        first, last = int(clean_frames[k]) + 1, int(clean_frames[k + 1]) - 1
+        if last < first or last - first + 1 > MAX_CONTACT_FRAMES:
+            continue
+        inside = (common >= first - 1) & (common <= last + 1)
+        separation = np.linalg.norm(a.positions[ia[inside], :2] - b.positions[ib[inside], :2], axis=1)
+        if separation.size and separation.min() < CONTACT_SIZES * size:
+            episodes.append((first, last))
+    return episodes
+
+
+def _join_miss(track_in: LiftedTrack, rows_in: np.ndarray, track_out: LiftedTrack, rows_out: np.ndarray) -> float:
+    """m: how far apart one track's motion before a contact and another's after it are, both carried
+    straight to the middle of the frames between them."""
+    middle = 0.5 * (float(track_in.frames[rows_in[-1]]) + float(track_out.frames[rows_out[0]]))
+    return float(np.linalg.norm(_line_at(track_in, rows_in, middle) - _line_at(track_out, rows_out, middle)))
+
+
+def _crossed_at_contact(a: LiftedTrack, b: LiftedTrack, episode: tuple[int, int], size: float) -> tuple[LiftedTrack, LiftedTrack] | None:
+    """a and b with their identities given back (``_uncrossed``) if they crossed at the episode, else None.
+
+    Each object's straight-line motion before the episode and after it, carried to the frames
+    between, must meet (a collision changes velocities, not positions; an occlusion neither). The
+    tracker predicts through a contact at constant velocity and hands the identities back crossed
+    when the mover stops and the one hit goes on, or when a lost track takes the other object;
+    then the crossed pairing joins both motions much better.
+    """
+    first, last = episode
+    sides_a, sides_b = _sides(a, first, last), _sides(b, first, last)
+    if sides_a is None or sides_b is None:
+        return None
+    (a_in, a_out), (b_in, b_out) = sides_a, sides_b
+    kept = _join_miss(a, a_in, a, a_out) + _join_miss(b, b_in, b, b_out)
+    crossed = _join_miss(a, a_in, b, b_out) + _join_miss(b, b_in, a, a_out)
+    if crossed + SWAP_MARGIN * size >= kept:
+        return None
+    return _uncrossed(a, b, first, last, (a_in, b_out), (b_in, a_out))
+
+
+def _uncrossed(a: LiftedTrack, b: LiftedTrack, first: int, last: int, motion_a: tuple[np.ndarray, np.ndarray],
+               motion_b: tuple[np.ndarray, np.ndarray]) -> tuple[LiftedTrack, LiftedTrack]:
+    """a keeps its samples before ``first`` and takes b's after ``last`` (b the other way round);
+    motion_a = (rows of a before, rows of b after) are a's object's motion (motion_b: b's object's).
+    Each sample of either track inside [first, last] goes to the object whose motion (the side
+    before up to the middle of the episode, after it beyond) passes closer; on a frame both
+    objects claim, the higher weight wins."""
+    middle = 0.5 * (first + last)
+    owners = ((a, b), (b, a))  # (track before, track after) of each object
+
+    def predicted(k: int, frame: int) -> np.ndarray:
+        rows_in, rows_out = (motion_a, motion_b)[k]
+        return _line_at(owners[k][0], rows_in, frame) if frame <= middle else _line_at(owners[k][1], rows_out, frame)
+
+    claims: list[dict[int, tuple[LiftedTrack, int]]] = [{}, {}]
+    for track in (a, b):
+        for row in np.flatnonzero((track.frames >= first) & (track.frames <= last)):
+            frame = int(track.frames[row])
+            k = int(np.argmin([np.linalg.norm(track.positions[row, :2] - predicted(o, frame)) for o in (0, 1)]))
+            held = claims[k].get(frame)
+            if held is None or track.weights[row] > held[0].weights[held[1]]:
+                claims[k][frame] = (track, row)
+    fields = ("frames", "positions", "yaw", "visible", "weights")
+    result = []
+    for k, (head, tail) in enumerate(owners):
+        parts = [(head, np.flatnonzero(head.frames < first))]
+        parts += [(track, np.array([row])) for _, (track, row) in sorted(claims[k].items())]
+        parts.append((tail, np.flatnonzero(tail.frames > last)))
+        result.append(replace(head, **{name: np.concatenate([getattr(t, name)[rows] for t, rows in parts]) for name in fields}))
+    return result[0], result[1]
+
+
+def _untangle_contacts(tracks: list[LiftedTrack], size: float, appearance: dict[int, np.ndarray]) -> list[LiftedTrack]:
+    """Give back identities the frame-to-frame tracker exchanged where two same-looking objects touched
+    (_crossed_at_contact); pairs told apart by colour keep theirs (the tracker matches colour labels)."""
+    tracks = list(tracks)
+    for i in range(len(tracks)):
+        for j in range(i + 1, len(tracks)):
+            a, b = tracks[i], tracks[j]
+            if appearance_distance(appearance[a.id], appearance[b.id]) > MAX_LINK_APPEARANCE:
+                continue
+            done = -1  # contacts up to this frame are settled
+            while True:
+                pending = [e for e in _contact_episodes(a, b, size) if e[0] > done]
+                found = next(((e, pair) for e in pending if (pair := _crossed_at_contact(a, b, e, size)) is not None), None)
+                if found is None:
+                    break
+                (_, done), (a, b) = found  # the samples changed: find the later contacts again
+            tracks[i], tracks[j] = a, b
+    return tracks
 
 
 def _renumber(lifted: list[LiftedTrack]) -> list[LiftedTrack]:

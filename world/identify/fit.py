@@ -31,7 +31,7 @@ from world.contacts import footprint_distance
 from world.footprint import footprint_gap
 from world.identify.jacobian import SecantJacobian
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, late_departure, robust_residuals, tail_state
-from world.identify.segments import CandidateCollision, find_candidate_collisions, is_precise
+from world.identify.segments import CandidateCollision, find_candidate_collisions, precise_tracks
 from world.observations import ObjectTrack, Observations
 from world.rollout import footprint_of, simulate
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
@@ -941,7 +941,7 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
     observed = tuple(sorted({(min(c.bodies), max(c.bodies), c.frame) for c in candidates
                              if 0 <= c.frame < observations.num_frames}, key=lambda c: (c[2], c[0], c[1])))
     world = replace(world, provenance=provenance, anchor=anchor, observed_collisions=observed)
-    precise = sorted(t.id for t in usable if is_precise(t))
+    precise = sorted(precise_tracks(observations) & {t.id for t in usable})
     decided = frozenset((a, b) for i, a in enumerate(precise) for b in precise[i + 1 :])
     return with_replayed_collisions(world, config.simulator, decided), report
 
@@ -956,7 +956,7 @@ def with_replayed_collisions(
     makes that pair collide. A replayed collision of a pair with no recorded
     one within the contact-episode gap is added at the replay's frame, unless
     the pair is in ``decided_pairs`` (sorted ids): two precise tracks whose
-    touches the track analysis saw by geometry (segments.is_precise), where
+    touches the track analysis saw by geometry (segments.precise_tracks), where
     a replayed collision the video does not show is the fit's error.
     """
     replay = (simulator or simulate)(world, (), max(world.observed_frames, 1))
@@ -1093,6 +1093,7 @@ def _joint_refinement(
     evaluations = stages = skipped_stages = 0
     deadline = _budget_clock() + config.time_budget_seconds
     joint_components = [c for c in components if any(k.bodies[0] in c for k in candidates)]
+    precise_ids = precise_tracks(observations)
     pair_frames: dict[tuple[int, int], int] = {}
     for c in candidates:
         pair_frames.setdefault(c.bodies, c.frame)
@@ -1110,7 +1111,7 @@ def _joint_refinement(
         component_deadline = _budget_clock() + max(deadline - _budget_clock(), 0.0) / left
         floor = config.noise_floor_factor * _local_rmse([track_fits[b] for b in component])
         # Touches seen by geometry (two precise tracks) are facts the replay must reproduce.
-        precise = sorted(b for b in component if is_precise(estimates[b].track)) if config.reproduce_contacts else []
+        precise = sorted(precise_ids & set(component)) if config.reproduce_contacts else []
         decided = [(a, b) for i, a in enumerate(precise) for b in precise[i + 1 :]]
         contacts = [(c.bodies, c.frame) for c in candidates if c.bodies in decided]
         updated, fitted_e, used, skipped = _refine_component(

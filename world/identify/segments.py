@@ -5,7 +5,7 @@ a change of velocity of a body (a change point of its track) and, at that
 frame, another body whose footprint is close enough to touch it. Candidates
 only initialise the joint fit and split tracks into stretches for the local
 fits; the fitted world finds its own contacts by exact root finding.
-Precise tracks (oracle positions, ``is_precise``) need no change point: two
+Precise tracks (oracle positions, ``precise_tracks``) need no change point: two
 of them collided where their footprints touched (``touch_events``), which
 also finds glancing contacts and contacts with a body at rest. They are
 also the world's record of observed collisions (World.observed_collisions).
@@ -56,6 +56,14 @@ INTERPENETRATION_TOLERANCE = 0.15
 # deviation). Oracle tracks (rounded to 0.1 mm) give ~0.1 mm; 1 % of an
 # object's size of noise gives ~12 mm.
 PRECISE_TRACK_JITTER = 0.002
+# Third differences measure the error only where the object moves: each step of a 4-sample window
+# longer than this (m per frame, 5 cm/s at 25 fps). A resting object that perception re-fits to the
+# same pixels repeats one position exactly (jitter 0), which says nothing of how far off it is.
+MOVING_STEP = 0.002
+# Moving windows a track needs to be judged on its own (a collision or a launch gives a few windows
+# of large real third differences; the median of this many is the measurement's); with fewer, the
+# moving windows of all the observations' tracks judge it (one measurement process made them all).
+MIN_MOVING_WINDOWS = 12
 # Two precise tracks whose footprints (true sizes, cube yaw) come within this
 # gap (m), at a frame or between two (each body continuing its last frame's
 # motion), touch: a collision however little either velocity changes.
@@ -277,16 +285,42 @@ def _side_velocity(
     return fit.state_at(at_time, gravity)[1]
 
 
-def is_precise(track: ObjectTrack) -> bool:
-    """True when the track's positions are precise enough for the touch test (PRECISE_TRACK_JITTER)."""
+def _jitter(track: ObjectTrack) -> tuple[np.ndarray, np.ndarray]:
+    """|third difference| (m) of the plane positions over every 4-sample window of consecutive observed
+    frames, and whether each window moves (all three steps > MOVING_STEP); both (W,)."""
     frames = track.frames[track.observed]
     xy = track.positions[track.observed, :2]
-    jitter = []
+    jitter, moving = [np.zeros(0)], [np.zeros(0, bool)]
     for run in _runs(frames, max_gap=0):
         if run.size >= 4:
             rows = np.searchsorted(frames, run)
+            steps = np.linalg.norm(np.diff(xy[rows], axis=0), axis=1)
             jitter.append(np.linalg.norm(np.diff(xy[rows], n=3, axis=0), axis=1))
-    return bool(jitter) and float(np.median(np.concatenate(jitter))) <= PRECISE_TRACK_JITTER
+            moving.append((steps[:-2] > MOVING_STEP) & (steps[1:-1] > MOVING_STEP) & (steps[2:] > MOVING_STEP))
+    return np.concatenate(jitter), np.concatenate(moving)
+
+
+def precise_tracks(observations: Observations) -> frozenset[int]:
+    """Ids of the tracks precise enough for the touch test (median jitter <= PRECISE_TRACK_JITTER).
+
+    A track is judged on its moving windows (``_jitter``); one with fewer than MIN_MOVING_WINDOWS
+    (an object at rest most of the video) by the moving windows of all the tracks, which one
+    measurement process made (perception, an annotation); when nothing moves, by all its windows.
+    A track without a window of its own (never 4 consecutive samples) is not precise.
+    """
+    measured = {t.id: _jitter(t) for t in observations.objects}
+    pooled = np.concatenate([jitter[moving] for jitter, moving in measured.values()] + [np.zeros(0)])
+    precise = set()
+    for track_id, (jitter, moving) in measured.items():
+        if moving.sum() >= MIN_MOVING_WINDOWS:
+            evidence = jitter[moving]
+        elif jitter.size and pooled.size >= MIN_MOVING_WINDOWS:
+            evidence = pooled
+        else:
+            evidence = jitter  # no window of its own (under 4 consecutive samples): never precise
+        if evidence.size and float(np.median(evidence)) <= PRECISE_TRACK_JITTER:
+            precise.add(track_id)
+    return frozenset(precise)
 
 
 def _dense(track: ObjectTrack, num_frames: int) -> tuple[np.ndarray, np.ndarray]:
@@ -394,7 +428,7 @@ def find_candidate_collisions(
 ) -> list[CandidateCollision]:
     """Candidate collisions, one per pair and event.
 
-    A pair of precise tracks (``is_precise``) collides where their footprints
+    A pair of precise tracks (``precise_tracks``) collides where their footprints
     touch (``touch_events``): geometry sees every contact, a glancing one or
     one with a body at rest included, and never a near miss. Other pairs:
     change points matched to the closest touching partner, and pair events
@@ -402,7 +436,8 @@ def find_candidate_collisions(
     """
     fps = observations.fps
     tracks = {t.id: t for t in observations.objects}
-    precise = {t.id: is_precise(t) for t in observations.objects}
+    precise_ids = precise_tracks(observations)
+    precise = {t.id: t.id in precise_ids for t in observations.objects}
     points = {t.id: change_points(t, fps) for t in observations.objects}
     found: dict[tuple[tuple[int, int], int], None] = {}
 

@@ -461,13 +461,17 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
     for track in sorted(lifted, key=_support, reverse=True):
         # A group takes the tracklet when it is close to its best tracklet, or to another of its tracklets
         # and not seen apart from the best one (a piece of it that another piece bridges).
-        closeness = [_close_frames(track, g[0], size) or (max(_close_frames(track, m, size) for m in g) if _same_object([track], g[:1], size) else 0)
-                     for g in groups]
-        matches = [g for g, close in zip(groups, closeness) if close or (explained is not None and _overlap(track, g[0]) and explained(track, g[0]))]
-        if not matches:
+        scored = []  # (close frames, group) of the groups that take it
+        for group in groups:
+            close = _close_frames(track, group[0], size) or (
+                max(_close_frames(track, member, size) for member in group) if _same_object([track], group[:1], size) else 0)
+            if close or (explained is not None and _overlap(track, group[0]) and explained(track, group[0])):
+                scored.append((close, group))
+        if not scored:
             groups.append([track])
             continue
-        best = max(matches, key=lambda g: closeness[next(k for k, h in enumerate(groups) if h is g)])
+        best = max(scored, key=lambda item: item[0])[1]  # the first on a tie (groups are in order of support)
+        matches = [group for _, group in scored]
         best.append(track)
         # A piece that duplicates two groups that never stand apart (one object seen before and after
         # a contact as two tracklets) makes them one object: the piece alone would keep them apart.

@@ -38,6 +38,8 @@ from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, d
 from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, SHAPE_KINDS, AttributeBelief, Camera
 
 MAX_ATTRIBUTE_FRAMES = 6  # isolated frames used to decide shape (a fit per frame and primitive)
+DUPLICATE_SIZES = 1.5  # tracklets closer than this many object sizes (radii) on most common frames are one object (see _close_frames)
+KEEP_SHARE = 0.5  # on a frame two joined tracklets both hold, the better supported one's sample stays unless it weighs less than this share of the other's
 MAX_APPEARANCE_FRAMES = 16  # isolated frames used to decide colour / material (cheap per frame)
 MIN_SHAPE_SCORE = 0.4  # mean silhouette overlap below which a track is not an object
 
@@ -327,14 +329,15 @@ def _extend_through_border(camera: Camera, kind: str, size: float, num_frames: i
 
 
 def _union(keep: LiftedTrack, other: LiftedTrack) -> LiftedTrack:
-    """One track from two tracklets of one object: all frames of both; on a frame both hold, the
-    sample with the larger weight; attributes of ``keep`` (the better supported tracklet)."""
+    """One track from two tracklets of one object: all frames of both; on a frame both hold, ``keep``'s
+    sample unless its weight is below KEEP_SHARE of the other's (a piece fitted on its own may weigh a little
+    more than the whole object's sample and sit a radius off); attributes of ``keep`` (the better supported tracklet)."""
     frames = np.union1d(keep.frames, other.frames)
     rows = {}
     for track in (other, keep):  # keep's samples win ties
         for k, frame in enumerate(track.frames):
             current = rows.get(int(frame))
-            if current is None or track.weights[k] >= current[0].weights[current[1]]:
+            if current is None or track.weights[k] >= KEEP_SHARE * current[0].weights[current[1]]:
                 rows[int(frame)] = (track, k)
     pick = [rows[int(f)] for f in frames]
     return replace(keep, frames=frames.astype(np.int64),
@@ -436,12 +439,15 @@ def _overlap(a: LiftedTrack, b: LiftedTrack) -> bool:
 
 
 def _close_frames(a: LiftedTrack, b: LiftedTrack, size: float) -> int:
-    """Common frames where two tracklets' centres are closer than one object size, when that is most
-    of their common frames (two solid objects cannot be that close: one object tracked twice); else 0."""
+    """Common frames where two tracklets' centres are closer than DUPLICATE_SIZES object sizes, when that is
+    most of their common frames; else 0. Two solid objects' centres are at least 2 sizes apart (touching), so
+    closer is one object tracked twice; 1.5 leaves half a radius for the fits of touching objects and takes
+    pieces whose own fit lies up to 1.5 radii off (a metal's mirrored or lit half, docs/benchmarks.md
+    "Duplicates within one and a half radii")."""
     common, ia, ib = np.intersect1d(a.frames, b.frames, return_indices=True)
     if common.size == 0:
         return 0
-    close = np.linalg.norm(a.positions[ia, :2] - b.positions[ib, :2], axis=1) < size
+    close = np.linalg.norm(a.positions[ia, :2] - b.positions[ib, :2], axis=1) < DUPLICATE_SIZES * size
     return int(close.sum()) if close.mean() > 0.5 else 0
 
 
@@ -458,10 +464,10 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
     explained(piece, anchor) -> bool: the piece's segments lie inside the anchor's fitted primitive
     (_explained_by); decide(group, source) -> Attributes of a joined track (_redecide_attributes).
 
-    1. Duplicates: two tracklets whose centres stay closer than one object size on most common
-       frames, or one explained by the other's object, are one object whatever colour or shape each
-       was read as (two solid objects cannot be that close; a metal object split into a lit and a dark
-       piece gives two such tracklets, the piece's own fit up to a radius off).
+    1. Duplicates: two tracklets whose centres stay closer than DUPLICATE_SIZES object sizes on most
+       common frames, or one explained by the other's object, are one object whatever colour or shape
+       each was read as (two solid objects cannot be that close; a metal object split into a lit and a
+       dark piece gives two such tracklets, the piece's own fit up to 1.5 radii off).
     2. Fragments: a tracklet that starts after another one ended, near where that one was heading,
        with a speed it could have and a similar colour, continues it (an occlusion, a merge with a
        touching object, a lost detection, a colour re-read at a contact). All ends are assigned to

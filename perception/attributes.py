@@ -15,7 +15,7 @@ pixels nearest each palette chromaticity, shape from the mean silhouette
 overlap of each primitive, colour and shape each sharpened or softened by one temperature
 (COLOR_TEMPERATURE, SHAPE_TEMPERATURE), material from the classifier's
 P(metal), whose temperature is part of the shipped model (fitted on
-predictions for each training look family by a model trained on the others).
+out-of-scene predictions across all its training looks).
 """
 
 from __future__ import annotations

@@ -13,10 +13,8 @@ Usage:
   python -m bench.train_attributes train NAME=CACHE ... [--out perception/data/material_model.json] [--check]
 
 NAME tells the set's renderer and look family (e.g. mujoco-tune, povray-dev); a
-name starting with the renderer (``mujoco`` / ``povray`` / ``blender``) lets ``evaluate``
-also leave a whole renderer out. Each tracklet's material statistics are taken
-relative to its scene (perception.material_model.relative_features over every
-tracklet of the scene), as the pipeline judges a track against its video's others. Deterministic: the logistic regression is
+name starting with the renderer (``mujoco`` / ``povray``) lets ``evaluate``
+also leave a whole renderer out. Deterministic: the logistic regression is
 solved exactly (lbfgs to tolerance), folds are by scene.
 """
 
@@ -40,7 +38,7 @@ from perception.attributes import (
     color_probabilities,
     shape_probabilities,
 )
-from perception.material_model import MODEL_PATH, TRACK_FEATURES, MaterialModel, relative_features, shipped_model, track_features
+from perception.material_model import MODEL_PATH, TRACK_FEATURES, MaterialModel, metal_probability, track_features
 from perception.pipeline import mean_overlaps, rank_shapes
 from world.types import SHAPE_KINDS
 
@@ -49,23 +47,15 @@ CHECK_TOLERANCE = 1e-6  # largest parameter difference `train --check` accepts
 
 
 def load_set(name: str, cache: Path) -> list[dict]:
-    """Samples of one cache with a true object: dicts with set, scene, decided colour / shape, truth, windows,
-    ..., and ``features``: the tracklet's material statistics relative to its scene
-    (perception.material_model.relative_features over every tracklet of the scene, matched or not, as the
-    pipeline sees every track of a video), None when it has none."""
+    """Samples of one cache with a true object: dicts with set, scene, decided colour / shape, truth, windows, ..."""
     rows = []
     for path in sorted(cache.glob("*.pkl")):
         scene = pickle.loads(path.read_bytes())
-        decided = []
         for track in scene["tracks"]:
-            shape, _, _ = rank_shapes(track["shape_scores"])
-            color = color_of_votes(track["color_votes"])
-            decided.append((color, shape, track_features(track["windows"], color)))
-        relative = relative_features([features for _, _, features in decided])
-        for track, (color, shape, _), features in zip(scene["tracks"], decided, relative):
             if track["truth"] is None:
                 continue
-            rows.append({"set": name, "scene": f"{name}/{scene['scene']}", "color": color, "shape": shape, "features": features,
+            shape, _, _ = rank_shapes(track["shape_scores"])
+            rows.append({"set": name, "scene": f"{name}/{scene['scene']}", "color": color_of_votes(track["color_votes"]), "shape": shape,
                          **{k: v for k, v in track.items() if k != "track"}})
     return rows
 
@@ -84,9 +74,10 @@ def design(rows: list[dict]) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[d
     """(X (N, F) features, S (N, 3) shape one-hot, y (N,) 1 = metal, rows kept): tracks with features."""
     features, shapes, labels, kept = [], [], [], []
     for row in rows:
-        if row["features"] is None:
+        f = track_features(row["windows"], row["color"])
+        if f is None:
             continue
-        features.append(row["features"])
+        features.append(f)
         shapes.append([row["shape"] == k for k in SHAPE_KINDS])
         labels.append(row["truth"]["material"] == "metal")
         kept.append(row)
@@ -129,23 +120,11 @@ def out_of_fold(x, s, y, groups, folds: int = 5) -> np.ndarray:
     return z
 
 
-def held_out_log_odds(x, s, y, groups: list[str]) -> np.ndarray:
-    """Log-odds of each sample from a model trained without its whole group (a set: a look family or renderer)."""
-    z = np.zeros(len(y))
-    for group in sorted(set(groups)):
-        test = np.array([g == group for g in groups])
-        z[test] = log_odds(fit(x[~test], s[~test], y[~test]), x[test], s[test])
-    return z
-
-
 def trained_model(rows: list[dict]) -> MaterialModel:
-    """The model on all rows. Its temperature is fitted on predictions for looks the model did not see: each
-    set's samples scored by a model trained on the other sets (with one set only: 5-fold out-of-scene), so that
-    the probabilities are as sure as the model is on a new renderer or look, not on a new scene of a known one."""
+    """The model on all rows, its temperature fitted on 5-fold out-of-scene log-odds."""
     x, s, y, kept = design(rows)
-    sets = [r["set"] for r in kept]
-    z = held_out_log_odds(x, s, y, sets) if len(set(sets)) > 1 else out_of_fold(x, s, y, [r["scene"] for r in kept])
-    return fit(x, s, y, fitted_temperature(z, y))
+    temperature = fitted_temperature(out_of_fold(x, s, y, [r["scene"] for r in kept]), y)
+    return fit(x, s, y, temperature)
 
 
 def _report(label: str, z: np.ndarray, y: np.ndarray) -> str:
@@ -187,8 +166,7 @@ def diagnose(rows: list[dict]) -> None:
         ok = {"color": 0, "shape": 0, "material": 0}
         misses = []
         for r in part:
-            metal = r["features"] is not None and shipped_model().log_odds(r["features"], r["shape"]) > 0
-            material = "metal" if metal else "rubber"
+            material = "metal" if metal_probability(r["windows"], r["color"], r["shape"]) > 0.5 else "rubber"
             decided = {"color": r["color"], "shape": r["shape"], "material": material}
             for key in ok:
                 ok[key] += decided[key] == r["truth"][key]

@@ -5,9 +5,8 @@
 * shape: the primitive (sphere, cube at its best yaw, cylinder) whose
   projected silhouette at the fitted pose overlaps the segments best (lift.py).
 * material: P(metal) of a small classifier on appearance statistics pooled
-  over the track's frames, judged against the video's other tracks and
-  trained across looks and renderers (perception.material_model; its
-  parameters ship as a JSON file).
+  over the track's frames, trained across looks and renderers
+  (perception.material_model; its parameters ship as a JSON file).
 
 Beside each decision, a probability per value (what grounding uses when a
 phrase matches no object or several): colour from the share of the track's
@@ -20,16 +19,14 @@ out-of-scene predictions across all its training looks).
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import numpy as np
 
 from perception.background import AMBIGUOUS, FLOOR
 from perception.geometry import silhouette
 from perception.lift import Fit
-from perception.material_model import appearance_windows, track_features
+from perception.material_model import appearance_windows, metal_probability
 from perception.segment import pixel_hue_labels
-from perception.types import NEUTRAL, Attributes, Detection, FrameSegments
+from perception.types import NEUTRAL, Detection, FrameSegments
 from world.types import COLORS, MATERIALS, SHAPE_KINDS, Camera
 
 # Temperatures of the attribute probabilities, at minimum mean log loss of the true value over the training sets of
@@ -65,18 +62,12 @@ def color_of_votes(votes: np.ndarray) -> str:
     return COLORS[int(np.argmax(coloured))]
 
 
-def material_features(detections: list[Detection], frames: np.ndarray, segments: list[FrameSegments], color: str) -> tuple[float, ...]:
-    """The track's material statistics (perception.material_model.track_features) on the detections' frames,
-    ``color`` the decided colour (its paint is the reference); () when no frame gives them. Material itself is
-    decided once every track of the video has its statistics (with_material, pipeline.decide_materials)."""
-    features = track_features(appearance_windows(detections, frames, segments), color)
-    return () if features is None else tuple(float(v) for v in features)
-
-
-def with_material(attributes: Attributes, metal_probability: float) -> Attributes:
-    """``attributes`` with material, metal_probability and material_probabilities set from P(metal)."""
-    return replace(attributes, material="metal" if metal_probability > 0.5 else "rubber", metal_probability=metal_probability,
-                   material_probabilities=material_probabilities(metal_probability))
+def material_of(detections: list[Detection], frames: np.ndarray, segments: list[FrameSegments], color: str,
+                shape: str) -> tuple[str, float]:
+    """(material, P(metal)) of the material model (perception.material_model) on the detections' frames;
+    ``color`` the decided colour (its paint is the reference), ``shape`` a SHAPE_KINDS name."""
+    probability = metal_probability(appearance_windows(detections, frames, segments), color, shape)
+    return ("metal" if probability > 0.5 else "rubber"), probability
 
 
 def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: Detection, labels: np.ndarray) -> float:
@@ -128,4 +119,4 @@ def material_probabilities(metal_probability: float, temperature: float = 1.0) -
     return {name: (metal if name == "metal" else 1.0 - metal) for name in MATERIALS}
 
 
-__all__ = ["color_of", "color_of_votes", "color_votes", "color_probabilities", "shape_probabilities", "material_probabilities", "material_features", "with_material", "shape_overlap", "NEUTRAL"]
+__all__ = ["color_of", "color_of_votes", "color_votes", "color_probabilities", "shape_probabilities", "material_probabilities", "material_of", "shape_overlap", "NEUTRAL"]

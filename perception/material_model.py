@@ -8,17 +8,12 @@ share, dark reflections), the spread and fine detail (Laplacian) of the
 shading, the chromaticity spread, saturation from rim to centre, and the
 floor's own texture (so that the classifier can discount it). Each is the
 median over the track's frames; the frame-to-frame spread of the body's
-brightness (moving reflections) is one more. The classifier sees each track
-**against the other objects of its video**: its features minus the median of
-every track's features in the scene (scene_reference), since how much shinier
-metal is than rubber carries over between looks and renderers far better than
-how shiny either is (docs/benchmarks.md "Material judged against the scene's
-other objects"). A logistic regression on the standardised relative
-features, with one bias per perceived shape, gives P(metal); its
+brightness (moving reflections) is one more. A logistic regression on the
+standardised features, with one bias per perceived shape, gives P(metal); its
 parameters are a small JSON file in the repository (perception/data/
 material_model.json), trained by ``python -m bench.train_attributes`` on many
 appearance settings at once (MuJoCo ``tune`` and ``default`` looks, POV-Ray
-and Blender renders; never the evaluation seeds) and evaluated leave-one-renderer-out
+renders; never the evaluation seeds) and evaluated leave-one-renderer-out
 (docs/benchmarks.md, "Material across renderers").
 """
 
@@ -28,7 +23,6 @@ import json
 from dataclasses import dataclass
 from functools import lru_cache
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from scipy import ndimage as ndi
@@ -44,7 +38,6 @@ FLOOR_LEVEL_PERCENTILE = 75  # of the ring's brightness: the lit floor next to t
 GREY_PAINT_RATIO = 0.75  # paint min/max channel ratio above which the paint has no chromaticity to compare with
 PEAK_FRACTION = 50  # the highlight peak: mean of the brightest 1/PEAK_FRACTION of the white light (>= 3 pixels)
 MODEL_PATH = Path(__file__).with_name("data") / "material_model.json"
-MODEL_INPUTS = "track features minus the scene median"  # what the shipped model was trained on (relative_features)
 
 FRAME_FEATURES = ("specular", "desaturation", "log_body", "peak", "log_high", "log_low", "bright_share",
                   "detail", "chroma_spread", "rim_saturation", "spread", "floor_texture", "log_raw_body")
@@ -150,23 +143,10 @@ def track_features(windows: list[AppearanceWindow], color: str) -> np.ndarray | 
     return np.concatenate([np.median(table, axis=0), [flicker]])
 
 
-def scene_reference(features: Sequence[np.ndarray | None]) -> np.ndarray | None:
-    """(len(TRACK_FEATURES),) median of the tracks' features over the tracks of one video that have them (None
-    when none has): what the video's objects look like on average under its light, floor and renderer."""
-    rows = [f for f in features if f is not None]
-    return np.median(np.asarray(rows), axis=0) if rows else None
-
-
-def relative_features(features: Sequence[np.ndarray | None]) -> list[np.ndarray | None]:
-    """Each track's features minus the scene's reference (scene_reference over the same tracks); None stays None."""
-    reference = scene_reference(features)
-    return [None if f is None else f - reference for f in features]
-
-
 @dataclass(frozen=True)
 class MaterialModel:
-    """Logistic regression on standardised scene-relative TRACK_FEATURES (relative_features) with one bias per
-    shape, P(metal) = sigmoid((bias[shape] + weights . (x - mean) / scale) / temperature)."""
+    """Logistic regression on standardised TRACK_FEATURES with one bias per shape, P(metal) =
+    sigmoid((bias[shape] + weights . (x - mean) / scale) / temperature)."""
 
     features: tuple[str, ...]
     mean: np.ndarray
@@ -190,13 +170,11 @@ class MaterialModel:
         return z / self.temperature
 
     def to_json(self) -> dict:
-        return {"inputs": MODEL_INPUTS, "features": list(self.features), "mean": self.mean.tolist(), "scale": self.scale.tolist(),
+        return {"features": list(self.features), "mean": self.mean.tolist(), "scale": self.scale.tolist(),
                 "weights": self.weights.tolist(), "bias": dict(self.bias), "temperature": self.temperature}
 
     @staticmethod
     def from_json(document: dict) -> "MaterialModel":
-        if document.get("inputs") != MODEL_INPUTS:
-            raise ValueError(f"material model: inputs {document.get('inputs')!r}, the code expects {MODEL_INPUTS!r}; retrain")
         return MaterialModel(tuple(document["features"]), np.asarray(document["mean"], float), np.asarray(document["scale"], float),
                              np.asarray(document["weights"], float), {k: float(v) for k, v in document["bias"].items()},
                              float(document["temperature"]))
@@ -208,15 +186,10 @@ def shipped_model() -> MaterialModel:
     return MaterialModel.from_json(json.loads(MODEL_PATH.read_text()))
 
 
-def scene_metal_probabilities(features: Sequence[np.ndarray | None], shapes: Sequence[str],
-                              model: MaterialModel | None = None) -> list[float]:
-    """P(metal) of each track of one video from its track_features (None: no frame gave features -> 0.5) and
-    its perceived shape (SHAPE_KINDS name), each judged against the video's other tracks (relative_features)."""
-    if len(features) != len(shapes):
-        raise ValueError(f"material: {len(features)} feature rows for {len(shapes)} shapes")
-    model = model or shipped_model()
-    probabilities = []
-    for relative, shape in zip(relative_features(features), shapes):
-        z = 0.0 if relative is None else model.log_odds(relative, shape)
-        probabilities.append(float(1.0 / (1.0 + np.exp(-np.clip(z, -30, 30)))))
-    return probabilities
+def metal_probability(windows: list[AppearanceWindow], color: str, shape: str, model: MaterialModel | None = None) -> float:
+    """P(metal) of a track from its appearance windows; 0.5 when no frame gives features."""
+    features = track_features(windows, color)
+    if features is None:
+        return 0.5
+    z = (model or shipped_model()).log_odds(features, shape)
+    return float(1.0 / (1.0 + np.exp(-np.clip(z, -30, 30))))

@@ -21,14 +21,13 @@ from perception.attributes import (
     color_of,
     color_probabilities,
     color_votes,
-    material_features,
+    material_of,
+    material_probabilities,
     shape_overlap,
     shape_probabilities,
-    with_material,
 )
 from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
-from perception.material_model import scene_metal_probabilities
 from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, pixel_hue_labels
 from perception.track import HungarianTracker
 from perception.types import NEUTRAL, Attributes, Detection, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
@@ -172,7 +171,7 @@ class PrimitiveLifter:
             return _redecide_attributes(merged, pooled, frames, segments)
 
         associated = _associate(lifted, self.size, appearance, explained=explained, decide=decide)
-        return _renumber(decide_materials(_untangle_contacts(associated, self.size, appearance)))
+        return _renumber(_untangle_contacts(associated, self.size, appearance))
 
 
 def mean_overlaps(scores: dict[str, list[float]]) -> dict[str, float]:
@@ -189,27 +188,17 @@ def rank_shapes(scores: dict[str, list[float]]) -> tuple[str, float, float]:
 
 def decide_attributes(detections: list[Detection], frames: np.ndarray, segments: list[FrameSegments],
                       scores: dict[str, list[float]]) -> Attributes:
-    """Colour and shape of one track, each with its probabilities, and its material statistics: colour and
-    material statistics by the attribute rules on ``detections`` (frames spread over the track), shape from
-    the per-frame primitive overlaps ``scores``. Material stays undecided (P(metal) 0.5) until decide_materials
-    judges every track against the video's others. The one place Attributes are built, for tracklets and for
-    joined tracks alike."""
+    """Colour, shape and material of one track, each with its probabilities: colour and material by the
+    attribute rules on ``detections`` (frames spread over the track), shape from the per-frame primitive
+    overlaps ``scores``. The one place Attributes are built, for tracklets and for joined tracks alike."""
     kind, margin, shape_score = rank_shapes(scores)
     votes = color_votes(detections, frames)
     color = color_of(detections, frames, votes)
-    undecided = Attributes(color=color, shape=kind, material="rubber", confidence=float(np.clip(margin * 5, 0, 1)),
-                           shape_score=shape_score, color_probabilities=color_probabilities(votes),
-                           shape_probabilities=shape_probabilities(mean_overlaps(scores)),
-                           material_features=material_features(detections, frames, segments, color))
-    return with_material(undecided, 0.5)
-
-
-def decide_materials(lifted: list[LiftedTrack]) -> list[LiftedTrack]:
-    """Every track's material decided from its statistics against those of the video's other tracks
-    (perception.material_model.scene_metal_probabilities; a track without statistics gets P(metal) 0.5)."""
-    features = [np.asarray(t.attributes.material_features) if t.attributes.material_features else None for t in lifted]
-    probabilities = scene_metal_probabilities(features, [t.attributes.shape for t in lifted])
-    return [replace(t, attributes=with_material(t.attributes, p)) for t, p in zip(lifted, probabilities)]
+    material, metal_probability = material_of(detections, frames, segments, color, kind)
+    return Attributes(color=color, shape=kind, material=material, confidence=float(np.clip(margin * 5, 0, 1)),
+                      metal_probability=metal_probability, shape_score=shape_score,
+                      color_probabilities=color_probabilities(votes), shape_probabilities=shape_probabilities(mean_overlaps(scores)),
+                      material_probabilities=material_probabilities(metal_probability))
 
 
 EXPLAINED_SHARE = 0.8  # share of a tracklet's pixels inside another tracklet's fitted silhouette: a piece of that object

@@ -88,7 +88,6 @@ class Attributes:
     color_probabilities: Mapping[str, float] = field(default_factory=dict)  # COLORS name -> p
     shape_probabilities: Mapping[str, float] = field(default_factory=dict)  # SHAPE_KINDS name -> p
     material_probabilities: Mapping[str, float] = field(default_factory=dict)  # MATERIALS name -> p
-    material_features: tuple[float, ...] = ()  # perception.material_model.track_features (): none computed
 
 
 @dataclass(frozen=True)

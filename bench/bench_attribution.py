@@ -393,7 +393,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes")
     parser.add_argument("--cache", type=Path, default=None, help="keep per-scene results (scene_XXXXX.json) here and reuse them")
     parser.add_argument("--cached-only", action="store_true", help="report on the scenes already in --cache only (no new perception)")
-    parser.add_argument("--json", type=Path, default=None, help="write the tables and per-scene reports here")
+    parser.add_argument("--json", type=Path, default=None, help="write the tables, per-scene reports and every question's record per row here")
     parser.add_argument("--rows", default=",".join(ROWS), help=f"comma-separated rows to fit and score (default all: {', '.join(ROWS)})")
     args = parser.parse_args(argv)
     rows = [r.strip() for r in args.rows.split(",") if r.strip()]
@@ -435,7 +435,7 @@ def main(argv: list[str] | None = None) -> int:
                     bar.update()
 
     ordered = [results[e.scene_index] for e in entries]
-    tables, ungrounded = {}, {}
+    tables, ungrounded, answers = {}, {}, {}
     with local_server() as url, ToolClient(url) as client:
         for row in rows:
             worlds = {r["scene"]: r["rows"][row]["world"] for r in ordered if row in r["rows"] and "world" in r["rows"][row]}
@@ -443,6 +443,7 @@ def main(argv: list[str] | None = None) -> int:
             evaluated = evaluate(entries, worlds, client, ExecutorConfig(mode="execute"), progress=False, build_info=infos)
             tables[row] = evaluated.table()
             ungrounded[row] = ungrounded_questions(evaluated.records)
+            answers[row] = [record.to_dict() for record in evaluated.records]
     print("\n## accuracy (%), per question / per option")
     print(format_table(tables))
     print("\n## questions with a reference not grounded (question or an option), per row")
@@ -460,7 +461,7 @@ def main(argv: list[str] | None = None) -> int:
     objects = sum(r.get("objects", 0) for r in ordered)
     print(f"perceived tracks {tracks}, matched to an object {matched}, objects {objects} (in scenes perceived)")
     if args.json:
-        args.json.write_text(json.dumps({"tables": {k: {c: t.to_dict() for c, t in v.items()} for k, v in tables.items()},
+        args.json.write_text(json.dumps({"tables": {k: {c: t.to_dict() for c, t in v.items()} for k, v in tables.items()}, "answers": answers,
                                          "scenes": [{k: v for k, v in r.items() if k != "rows"} | {"rows": {n: {k: v for k, v in f.items() if k != "world"} for n, f in r["rows"].items()}} for r in ordered]}, indent=1))
     return 0
 

@@ -323,7 +323,7 @@ def _union(keep: LiftedTrack, other: LiftedTrack) -> LiftedTrack:
     more than the whole object's sample and sit a radius off); attributes of ``keep`` (the better supported tracklet)."""
     frames = np.union1d(keep.frames, other.frames)
     rows = {}
-    for track in (other, keep):  # keep's samples win ties
+    for track in (other, keep):  # keep comes second: its sample replaces other's unless it weighs under KEEP_SHARE of it
         for k, frame in enumerate(track.frames):
             current = rows.get(int(frame))
             if current is None or track.weights[k] >= KEEP_SHARE * current[0].weights[current[1]]:

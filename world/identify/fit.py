@@ -72,6 +72,23 @@ class FitConfig:
     density_prior: Mapping[str, float] = field(default_factory=lambda: {"rubber": 1100.0, "metal": 2700.0})
     joint: bool = True
     prefix_margin_frames: int = 10
+    # What a stage may fit needs enough video after the event that informs it.
+    # A collision's restitution is fitted only by stages that see at least
+    # restitution_after_seconds after it (0.16 s: 4 frames at 25 fps), and the
+    # sliding friction of a body only by stages that see it move for at least
+    # friction_after_seconds (0.4 s: a deceleration needs longer than a
+    # velocity) since it was first seen moving or set moving by its first
+    # collision. A contact in the video's last frames shows almost nothing of
+    # the response: the optimiser bent e to its bound, or the struck body's
+    # friction up to 1, to fit one or two samples, and the continuation after
+    # the video went wrong. Until then they keep their estimates (the median
+    # restitution of the informed pairs; the similar objects' friction).
+    # Masses need less: two samples of the struck body after the collision
+    # (mass_after_seconds) show the momentum it took. Chosen on development
+    # scenes (docs/benchmarks.md, "Issue 13, the response to a late collision").
+    restitution_after_seconds: float = 0.16
+    friction_after_seconds: float = 0.4
+    mass_after_seconds: float = 0.08
     max_nfev_per_stage: int = 60
     # Relative cost change that ends a stage: millimetre-level changes of an
     # RMSE of a few millimetres do not change any event.
@@ -555,10 +572,11 @@ class _Packing:
         return np.asarray(low), np.asarray(high)
 
     def owners(self) -> list[tuple[str, object]]:
-        """What each vector entry belongs to: ("body", id), ("skid", id), ("mass", id) or ("pair", pair)."""
+        """What each vector entry belongs to: ("body", id) (position, velocity), ("friction", id),
+        ("skid", id), ("mass", id) or ("pair", pair)."""
         owners: list[tuple[str, object]] = []
         for body, skid, (_, size) in zip(self.bodies, self._skids(), self._body_slots()):
-            owners += [("body", body)] * (size - skid) + [("skid", body)] * skid
+            owners += [("body", body)] * (size - skid - 1) + [("friction", body)] + [("skid", body)] * skid
         owners += [("mass", body) for body in self.bodies[1:]]
         owners += [("pair", pair) for pair in self.pairs]
         return owners
@@ -641,6 +659,14 @@ def _refine_component(
     vector = np.clip(packing.pack(estimates, pair_e), low, high)
     scale = packing.scale()
     first_seen = {t.id: int(t.frames[t.observed][0]) for t in tracks}
+    # From which frame a body's motion shows its friction: seen moving, or set moving by its first collision.
+    first_motion = {
+        body: first_seen[body] if moving else min((f for p, f in pair_frames.items() if body in p), default=math.inf)
+        for body, moving in zip(packing.bodies, packing.moving)
+    }
+    restitution_after = frames_in(config.restitution_after_seconds, observations.fps)
+    friction_after = frames_in(config.friction_after_seconds, observations.fps)
+    mass_after = frames_in(config.mass_after_seconds, observations.fps)
     owners = packing.owners()
     evaluations = 0
     skipped = 0
@@ -653,11 +679,13 @@ def _refine_component(
         if _budget_clock() > stage_deadline:
             skipped += 1
             continue
-        seen_pairs = {p for p, frame in pair_frames.items() if frame < horizon}
+        seen_pairs = {p for p, frame in pair_frames.items() if frame + restitution_after < horizon}
         free = np.array(
             [
                 (kind == "body" and first_seen[owner] < horizon)
-                or (kind in ("mass", "skid") and any(owner in p for p in seen_pairs))
+                or (kind == "friction" and first_motion[owner] + friction_after < horizon)
+                or (kind == "mass" and any(owner in p for p, frame in pair_frames.items() if frame + mass_after < horizon))
+                or (kind == "skid" and any(owner in p for p in seen_pairs))
                 or (kind == "pair" and owner in seen_pairs)
                 for kind, owner in owners
             ]
@@ -906,7 +934,9 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
     began, began_cpu = time.perf_counter(), _budget_clock()
     usable, flags = _observed_tracks(observations)
     candidates, track_fits = _local_fits(usable, observations, config)
+    late = _late_pairs(candidates, observations, config)
     log_ratios, pair_e = _response_estimates(candidates)
+    pair_e = {pair: e for pair, e in pair_e.items() if pair not in late}  # too little of the response to read e
     components = _components([t.id for t in usable], [c.bodies for c in candidates])
     masses, mass_identified = _component_masses(usable, components, log_ratios, config)
     default_e = float(np.median(list(pair_e.values()))) if pair_e else config.restitution_prior
@@ -916,11 +946,13 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
     refinement = _Refinement(0, 0, 0)
     if config.joint:
         estimates, pair_e, refinement = _joint_refinement(
-            components, candidates, estimates, pair_e, default_e, defaulted, observations, config, track_fits
+            components, candidates, estimates, pair_e, default_e, defaulted, observations, config, track_fits, late
         )
     if pair_e:
-        # Bodies carry the typical restitution for collisions not seen yet.
-        typical_e = float(np.median(list(pair_e.values())))
+        # Bodies carry the typical restitution for collisions not seen yet; so do the late pairs.
+        informed = [e for pair, e in pair_e.items() if pair not in late]
+        typical_e = float(np.median(informed)) if informed else default_e
+        pair_e = {pair: typical_e if pair in late else e for pair, e in pair_e.items()}
         estimates = {i: replace(e, restitution=typical_e) for i, e in estimates.items()}
     world = _world([estimates[t.id] for t in usable], pair_e, observations, config)
     object_reports, rmse = _object_reports(world, observations, estimates, defaulted, flags, config)
@@ -1082,13 +1114,25 @@ class _Refinement:
     skipped_stages: int
 
 
+def _late_pairs(candidates: Sequence[CandidateCollision], observations: Observations, config: FitConfig) -> frozenset[tuple[int, int]]:
+    """Pairs whose first collision is less than FitConfig.restitution_after_seconds before the video's
+    end: the video shows too little of the response to read their restitution."""
+    after = frames_in(config.restitution_after_seconds, observations.fps)
+    first: dict[tuple[int, int], int] = {}
+    for c in candidates:
+        first[c.bodies] = min(first.get(c.bodies, c.frame), c.frame)
+    return frozenset(pair for pair, frame in first.items() if frame + after >= observations.num_frames)
+
+
 def _joint_refinement(
     components: Sequence[tuple[int, ...]], candidates: Sequence, estimates: dict[int, BodyEstimate],
     pair_e: dict[tuple[int, int], float], default_e: float, defaulted: dict[int, dict[str, str]],
     observations: Observations, config: FitConfig, track_fits: Mapping[int, TrackFit],
+    late: frozenset[tuple[int, int]] = frozenset(),
 ) -> tuple[dict[int, BodyEstimate], dict[tuple[int, int], float], _Refinement]:
     """Stage 4: cumulative-prefix least squares per component with collisions, within the time budget.
-    Updates ``defaulted`` (mass and restitution of the bodies in replayed collisions are identified)."""
+    Updates ``defaulted`` (mass and restitution of the bodies in replayed collisions are identified,
+    but not the restitution of a body whose every pair is in ``late``, _late_pairs)."""
     estimates, pair_e = dict(estimates), dict(pair_e)
     evaluations = stages = skipped_stages = 0
     deadline = _budget_clock() + config.time_budget_seconds
@@ -1120,10 +1164,13 @@ def _joint_refinement(
         )
         estimates.update(updated)
         pair_e.update(fitted_e)
+        responded = {b for pair in pairs if pair not in late for b in pair}
         for body in {b for pair in pairs for b in pair}:
             # The joint fit identified them from the collision it replays.
             defaulted[body].pop("mass", None)
             defaulted[body].pop("restitution", None)
+            if body not in responded:
+                defaulted[body]["restitution"] = "its collisions are in the video's last frames: typical restitution"
         evaluations += used
         stages += len(horizons)
         skipped_stages += skipped

@@ -650,9 +650,11 @@ def _refine_component(
     ``config.min_relative_improvement`` of it.
 
     A stage fitting frames < H frees only what those frames can inform:
-    bodies seen before H, masses and restitutions of collisions before H.
-    Everything else keeps its current value (a parameter without data
-    would otherwise drift in the optimiser's null space).
+    bodies seen before H; the masses and restitutions of collisions, and the
+    friction of bodies moving, long enough before H to show the response
+    (FitConfig.mass_after_seconds, restitution_after_seconds,
+    friction_after_seconds). Everything else keeps its current value (a
+    parameter without data would otherwise drift in the optimiser's null space).
     """
     tracks = [estimates[b].track for b in packing.bodies]
     low, high = packing.bounds()

@@ -1116,14 +1116,20 @@ class _Refinement:
     skipped_stages: int
 
 
-def _late_pairs(candidates: Sequence[CandidateCollision], observations: Observations, config: FitConfig) -> frozenset[tuple[int, int]]:
-    """Pairs whose first collision is less than FitConfig.restitution_after_seconds before the video's
-    end: the video shows too little of the response to read their restitution."""
-    after = frames_in(config.restitution_after_seconds, observations.fps)
+def _first_collision_frames(candidates: Sequence[CandidateCollision]) -> dict[tuple[int, int], int]:
+    """Per colliding pair (sorted ids), the frame of its first candidate collision."""
     first: dict[tuple[int, int], int] = {}
     for c in candidates:
         first[c.bodies] = min(first.get(c.bodies, c.frame), c.frame)
-    return frozenset(pair for pair, frame in first.items() if frame + after >= observations.num_frames)
+    return first
+
+
+def _late_pairs(candidates: Sequence[CandidateCollision], observations: Observations, config: FitConfig) -> frozenset[tuple[int, int]]:
+    """Pairs whose first collision is less than FitConfig.restitution_after_seconds before the video's
+    end: no stage of the joint fit frees their restitution (_refine_component), the video shows too
+    little of the response to read it."""
+    after = frames_in(config.restitution_after_seconds, observations.fps)
+    return frozenset(pair for pair, frame in _first_collision_frames(candidates).items() if frame + after >= observations.num_frames)
 
 
 def _joint_refinement(
@@ -1140,9 +1146,7 @@ def _joint_refinement(
     deadline = _budget_clock() + config.time_budget_seconds
     joint_components = [c for c in components if any(k.bodies[0] in c for k in candidates)]
     precise_ids = precise_tracks(observations)
-    pair_frames: dict[tuple[int, int], int] = {}
-    for c in candidates:
-        pair_frames.setdefault(c.bodies, c.frame)
+    pair_frames = _first_collision_frames(candidates)
     for component in joint_components:
         pairs = tuple(sorted({c.bodies for c in candidates if c.bodies[0] in component}))
         for pair in pairs:

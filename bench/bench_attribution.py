@@ -14,6 +14,8 @@ with the planner over the HTTP tools (as bench/bench_qa.py does):
   on plane positions, gate GATE_M); samples of no object are dropped;
 * swap attributes: perceived tracks with the colour, material and shape of
   the object matched to the track;
+* swap material / swap shape: the same for one attribute only (its belief made
+  certain, the other attributes' beliefs kept as perceived);
 * swap positions (lifting): perceived tracks and frames with the true plane
   position and yaw of the object matched in that frame;
 * swap entry/exit: each matched track starts and ends when its object is in
@@ -31,7 +33,9 @@ truth; questions name objects by attributes, so ids do not change answers.
 
 Identification report per row (bench.metrics.score_world against MuJoCo):
 observed-window RMSE over visible frames, observed-window collision recall
-(5-frame tolerance). The dataset must not overlap the fixtures (seed 12),
+(5-frame tolerance), and the share of the world's bodies matched to an object
+whose material is the object's (after identification revised it by mass
+ratios, world/identify/materials.py). The dataset must not overlap the fixtures (seed 12),
 bench_qa (4242), bench_perception (777) or any tuning set.
 """
 
@@ -71,7 +75,8 @@ from world.io import load_camera, world_to_dict
 from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, default_shape  # noqa: E402
 from world.rollout import simulate
 
-ROWS = ("from video", "oracle tracks", "swap identities", "swap attributes", "swap positions", "swap entry/exit", "swap collisions")
+ROWS = ("from video", "oracle tracks", "swap identities", "swap attributes", "swap material", "swap shape", "swap positions",
+        "swap entry/exit", "swap collisions")
 SWAPS = ROWS[2:]
 MATCH_GATE_M = 0.4  # m: a track farther than this (mean) from every object is no object's
 GATE_M = 0.4  # m: per-frame sample-to-object gate (two object radii)
@@ -192,17 +197,31 @@ def swap_identities(perceived: Observations, truth: Truth) -> Observations:
     return replace(perceived, objects=tuple(objects))
 
 
-def swap_attributes(perceived: Observations, truth: Truth, assignment: dict[int, int]) -> Observations:
+def swap_attributes(perceived: Observations, truth: Truth, assignment: dict[int, int],
+                    names: tuple[str, ...] = ("color", "material", "shape")) -> Observations:
+    """Each matched track takes its object's true value of each attribute in names; a
+    swapped attribute's belief becomes certain, the others' stay as perceived."""
     tracks = []
     for track in perceived.objects:
         object_id = assignment.get(track.id)
         if object_id is None:
             tracks.append(track)
             continue
-        color, material, shape = truth.attributes[object_id]
-        # The true attributes are certain: no perceived belief goes with them.
-        tracks.append(replace(track, color=color, material=material, shape=default_shape(shape, DEFAULT_OBJECT_SIZE),
-                              attribute_belief=None))
+        true_values = dict(zip(("color", "material", "shape"), truth.attributes[object_id]))
+        changes: dict = {}
+        if "color" in names:
+            changes["color"] = true_values["color"]
+        if "material" in names:
+            changes["material"] = true_values["material"]
+        if "shape" in names:
+            changes["shape"] = default_shape(true_values["shape"], DEFAULT_OBJECT_SIZE)
+        belief = track.attribute_belief
+        if belief is not None and set(names) != {"color", "material", "shape"}:
+            certain = {name: ((true_values[name], 1.0),) for name in names}
+            belief = replace(belief, **certain)
+        else:
+            belief = None  # all true: no perceived belief goes with them
+        tracks.append(replace(track, attribute_belief=belief, **changes))
     return replace(perceived, objects=tuple(tracks))
 
 
@@ -301,6 +320,9 @@ def _fit(observations: Observations, truth_path: Path, truth: Truth, candidates:
         "rmse": score.rmse,
         "observed": (score.observed.true_positives, score.observed.predicted, score.observed.actual),
         "bodies": len(world.bodies),
+        # The world's material of each body that is an object (relabelled id): right, judged.
+        "materials": (sum(b.material == truth.attributes[b.id][1] for b in world.bodies if b.id in truth.attributes),
+                       sum(b.id in truth.attributes for b in world.bodies)),
     }
 
 
@@ -333,6 +355,8 @@ def attribute_scene(job: tuple) -> dict:
         variants["from video"] = (perceived, None)
         variants["swap identities"] = (swap_identities(perceived, truth), None)
         variants["swap attributes"] = (swap_attributes(perceived, truth, ids), None)
+        variants["swap material"] = (swap_attributes(perceived, truth, ids, ("material",)), None)
+        variants["swap shape"] = (swap_attributes(perceived, truth, ids, ("shape",)), None)
         variants["swap positions"] = (swap_positions(perceived, truth), None)
         variants["swap entry/exit"] = (swap_entry_exit(perceived, truth, ids), None)
         variants["swap collisions"] = (perceived, true_candidates(perceived, truth))
@@ -350,7 +374,8 @@ def attribute_scene(job: tuple) -> dict:
 
 
 def identification_table(results: list[dict]) -> str:
-    lines = ["| row | worlds | observed-window RMSE median (m) | p90 (m) | observed collision recall | fit s median |", "|---|---|---|---|---|---|"]
+    lines = ["| row | worlds | observed-window RMSE median (m) | p90 (m) | observed collision recall | world material right | fit s median |",
+             "|---|---|---|---|---|---|---|"]
     for row in ROWS:
         if not any(row in r["rows"] for r in results):
             continue
@@ -359,8 +384,10 @@ def identification_table(results: list[dict]) -> str:
             continue
         rmse = [f["rmse"] for f in fits if np.isfinite(f["rmse"])]
         hits, actual = sum(f["observed"][0] for f in fits), sum(f["observed"][2] for f in fits)
+        right, judged = (sum(f.get("materials", (0, 0))[k] for f in fits) for k in (0, 1))
         lines.append(
             f"| {row} | {len(fits)} | {np.median(rmse):.4f} | {np.percentile(rmse, 90):.4f} | {hits / max(actual, 1):.3f} ({hits}/{actual}) | "
+            f"{right / max(judged, 1):.3f} ({right}/{judged}) | "
             f"{statistics.median(f['fit_seconds'] for f in fits):.2f} |"
         )
     return "\n".join(lines)

@@ -30,6 +30,7 @@ from planner.grounding import objects_from_summary
 from planner.parser import question_guide
 from planner.executor import ExecutorConfig, VideoExecutor, prediction_horizon_for
 from planner.vlm import ChatClient, VlmConfig, VlmError, answer_with_vlm
+from world.identify.materials import REVISION_FLAG
 from world.io import load_camera
 
 
@@ -123,6 +124,10 @@ def run_build(args: argparse.Namespace) -> int:
     rmse = "-" if result.rmse is None else f"{result.rmse * 100:.1f} cm"
     print(f"world with {len(result.world['bodies'])} bodies -> {args.output} "
           f"(perception {result.perception_seconds:.1f} s, fit {result.fit_seconds:.1f} s, rmse {rmse})")
+    for entry in result.world.get("provenance", {}).get("fit", {}).get("objects", []):
+        for flag in entry.get("flags", []):
+            if flag.startswith(REVISION_FLAG):
+                print(f"  object {entry['id']}: {flag}")
     return 0
 
 

@@ -64,6 +64,7 @@ def run(args: argparse.Namespace) -> int:
             + (f"mu={body.friction:.3f} " if not body.rolls else
                f"rolling mu={body.rolling_friction:.3f} skid mu={body.friction:.3f} ")
             + f"mass={body.mass:.2f} rmse={item.rmse * 100:.1f}cm{defaulted}"
+            + (f" ({'; '.join(item.flags)})" if item.flags else "")
         )
     print(
         f"fit: {len(world.bodies)} bodies, {len(report.collisions_used)} collisions used, "

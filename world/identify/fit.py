@@ -30,6 +30,7 @@ from threadpoolctl import threadpool_limits
 from world.contacts import footprint_distance
 from world.footprint import footprint_gap
 from world.identify.jacobian import SecantJacobian
+from world.identify.materials import MaterialRevision, REPORT_CHANGE, prior_mass, revise_materials
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, late_departure, robust_residuals, tail_state
 from world.identify.segments import CandidateCollision, find_candidate_collisions, precise_tracks
 from world.observations import ObjectTrack, Observations
@@ -70,6 +71,10 @@ class FitConfig:
     # (kg/m^3) by material times the volume of the known shape. Rubber is
     # about 1100; "metal" is taken as aluminium, the lightest common metal.
     density_prior: Mapping[str, float] = field(default_factory=lambda: {"rubber": 1100.0, "metal": 2700.0})
+    # The same densities read the other way: a perceived body's material belief
+    # is revised by the mass ratios its collisions identified (world/identify/materials.py;
+    # docs/identification.md). Off for worlds whose materials all weigh the same.
+    materials_from_masses: bool = True
     joint: bool = True
     prefix_margin_frames: int = 10
     # What a stage may fit needs enough video after the event that informs it.
@@ -277,26 +282,6 @@ def _response_estimates(
             e = -((c.post[0] - c.post[1]) @ n) / approach
             restitution.setdefault(c.bodies, []).append(float(np.clip(e, *RESTITUTION_BOUNDS)))
     return log_ratios, {pair: float(np.median(v)) for pair, v in restitution.items()}
-
-
-def prior_mass(track: ObjectTrack, density: Mapping[str, float]) -> float:
-    """Mass (kg) a body of this material and shape would have: density x volume.
-
-    The volume is the primitive's, or the mesh's when the shape names one.
-    """
-    shape = track.shape
-    if shape.mesh_path:
-        import trimesh  # only for worlds that carry meshes
-
-        volume = float(trimesh.load(shape.mesh_path, force="mesh").volume)
-    elif shape.kind == "sphere":
-        volume = 4.0 / 3.0 * math.pi * shape.radius**3
-    elif shape.kind == "cube":
-        volume = (2.0 * shape.half_extent) ** 3
-    else:
-        volume = math.pi * shape.radius**2 * 2.0 * shape.half_height
-    known = [value for value in density.values()]
-    return volume * density.get(track.material or "", float(np.exp(np.mean(np.log(known)))))
 
 
 def _solve_masses(
@@ -958,6 +943,11 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
         estimates = {i: replace(e, restitution=typical_e) for i, e in estimates.items()}
     world = _world([estimates[t.id] for t in usable], pair_e, observations, config)
     object_reports, rmse = _object_reports(world, observations, estimates, defaulted, flags, config)
+    if config.materials_from_masses:
+        # After the reports: a link needs both bodies' fit RMSE; the scaling keeps every ratio, so the RMSEs hold.
+        world, revisions = revise_materials(world, _mass_links(candidates, log_ratios, observations, config),
+                                            config.density_prior, components, {o.id: o.rmse for o in object_reports})
+        object_reports = _flag_revisions(revisions, object_reports)
     report = FitReport(
         objects=object_reports,
         collisions_used=tuple((c.bodies[0], c.bodies[1], c.frame) for c in candidates),
@@ -1037,7 +1027,7 @@ def _component_masses(
     log_ratios: Mapping, config: FitConfig,
 ) -> tuple[dict[int, float], set[int]]:
     """Stage 3: masses (kg) per contact-connected component, scaled by the semantic prior; the ids whose mass was identified."""
-    priors = {t.id: prior_mass(t, config.density_prior) for t in usable}
+    priors = {t.id: prior_mass(t.shape, t.material, config.density_prior) for t in usable}
     masses: dict[int, float] = {}
     identified: set[int] = set()
     for component in components:
@@ -1122,6 +1112,23 @@ def _first_collision_frames(candidates: Sequence[CandidateCollision]) -> dict[tu
     for c in candidates:
         first[c.bodies] = min(first.get(c.bodies, c.frame), c.frame)
     return first
+
+
+def _mass_links(candidates: Sequence[CandidateCollision], log_ratios: Sequence[tuple[int, int, float]],
+                observations: Observations, config: FitConfig) -> list[tuple[int, int]]:
+    """Pairs whose mass ratio the fit identified: with the joint fit, those whose first collision is at
+    least FitConfig.mass_after_seconds before the video's end (the rule that frees their masses,
+    _refine_component); without it, those with a local momentum estimate."""
+    if not config.joint:
+        return sorted({(a, b) for a, b, _ in log_ratios})
+    after = frames_in(config.mass_after_seconds, observations.fps)
+    return sorted(pair for pair, frame in _first_collision_frames(candidates).items() if frame + after < observations.num_frames)
+
+
+def _flag_revisions(revisions: Sequence[MaterialRevision], reports: Sequence[ObjectFitReport]) -> tuple[ObjectFitReport, ...]:
+    """The object reports with a flag on each body whose material belief the mass ratios moved (REPORT_CHANGE)."""
+    moved = {r.body: r.message() for r in revisions if max(abs(r.after[m] - r.before[m]) for m in r.after) >= REPORT_CHANGE}
+    return tuple(replace(o, flags=(*o.flags, moved[o.id])) if o.id in moved else o for o in reports)
 
 
 def _late_pairs(candidates: Sequence[CandidateCollision], observations: Observations, config: FitConfig) -> frozenset[tuple[int, int]]:

@@ -147,10 +147,10 @@ def test_mass_prior_uses_the_mesh_volume_when_there_is_one(tmp_path):
     trimesh.creation.box(extents=(0.4, 0.2, 0.1)).export(path)
     track = ObjectTrack(0, Shape("cube", half_extent=0.2, mesh_path=str(path)), np.arange(2), np.zeros((2, 3)),
                         np.zeros(2), np.ones(2, bool), np.ones(2), material="rubber")
-    assert prior_mass(track, {"rubber": 1000.0}) == pytest.approx(1000.0 * 0.4 * 0.2 * 0.1)
+    assert prior_mass(track.shape, track.material, {"rubber": 1000.0}) == pytest.approx(1000.0 * 0.4 * 0.2 * 0.1)
     plain = ObjectTrack(0, Shape("cube", half_extent=0.2), np.arange(2), np.zeros((2, 3)),
                         np.zeros(2), np.ones(2, bool), np.ones(2), material="rubber")
-    assert prior_mass(plain, {"rubber": 1000.0}) == pytest.approx(1000.0 * 0.4**3)
+    assert prior_mass(plain.shape, plain.material, {"rubber": 1000.0}) == pytest.approx(1000.0 * 0.4**3)
 
 
 def test_time_budget_keeps_the_best_fit_and_says_so():

@@ -29,6 +29,7 @@ from threadpoolctl import threadpool_limits
 
 from world.contacts import footprint_distance
 from world.footprint import footprint_gap
+from world.identify.graph import connected_components
 from world.identify.jacobian import SecantJacobian
 from world.identify.materials import MaterialRevision, REPORT_CHANGE, prior_mass, revise_materials
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, late_departure, robust_residuals, tail_state
@@ -241,23 +242,6 @@ def _friction_estimate(fit: TrackFit) -> float | None:
 # --------------------------------------------------------------------------
 # Stage 3: collision response from velocity jumps
 # --------------------------------------------------------------------------
-def _components(ids: Sequence[int], pairs: Sequence[tuple[int, int]]) -> list[tuple[int, ...]]:
-    parent = {i: i for i in ids}
-
-    def root(i: int) -> int:
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for a, b in pairs:
-        parent[root(a)] = root(b)
-    groups: dict[int, list[int]] = {}
-    for i in ids:
-        groups.setdefault(root(i), []).append(i)
-    return sorted((tuple(sorted(g)) for g in groups.values()), key=lambda g: g[0])
-
-
 def _response_estimates(
     candidates: Sequence[CandidateCollision],
 ) -> tuple[list[tuple[int, int, float]], dict[tuple[int, int], float]]:
@@ -924,7 +908,7 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
     late = _late_pairs(candidates, observations, config)
     log_ratios, pair_e = _response_estimates(candidates)
     pair_e = {pair: e for pair, e in pair_e.items() if pair not in late}  # too little of the response to read e
-    components = _components([t.id for t in usable], [c.bodies for c in candidates])
+    components = connected_components([t.id for t in usable], [c.bodies for c in candidates])
     masses, mass_identified = _component_masses(usable, components, log_ratios, config)
     default_e = float(np.median(list(pair_e.values()))) if pair_e else config.restitution_prior
     estimates, defaulted = _initial_estimates(

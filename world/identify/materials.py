@@ -29,6 +29,7 @@ import math
 from dataclasses import dataclass, replace
 from typing import Mapping, Sequence
 
+from world.identify.graph import connected_components
 from world.types import AttributeBelief, Body, Shape, World
 
 # Spread (natural-log units) of a fitted log density ratio about the one its
@@ -98,25 +99,6 @@ def _robust_normal(x: float) -> float:
     return (1.0 - RATIO_OUTLIER_SHARE) * core + RATIO_OUTLIER_SHARE / RATIO_SPAN
 
 
-def _groups(links: Sequence[tuple[int, int]]) -> list[list[int]]:
-    """Connected groups of bodies, each sorted, in order of their smallest id."""
-    parent: dict[int, int] = {}
-
-    def root(i: int) -> int:
-        parent.setdefault(i, i)
-        while parent[i] != i:
-            parent[i] = parent[parent[i]]
-            i = parent[i]
-        return i
-
-    for a, b in links:
-        parent[root(a)] = root(b)
-    groups: dict[int, list[int]] = {}
-    for i in sorted(parent):
-        groups.setdefault(root(i), []).append(i)
-    return sorted(groups.values())
-
-
 def revise_materials(world: World, links: Sequence[tuple[int, int]], density: Mapping[str, float],
                      mass_groups: Sequence[Sequence[int]] = (),
                      rmse: Mapping[int, float] | None = None) -> tuple[World, tuple[MaterialRevision, ...]]:
@@ -149,7 +131,7 @@ def revise_materials(world: World, links: Sequence[tuple[int, int]], density: Ma
               if a != b and believed(a) is not None and believed(b) is not None and fitted(a) and fitted(b)]
     log_density = {i: math.log(bodies[i].mass / shape_volume(bodies[i].shape)) for pair in usable for i in pair}
     revisions: list[MaterialRevision] = []
-    for group in _groups(usable):
+    for group in connected_components((), usable):
         if len(group) > MAX_GROUP_BODIES:
             continue
         members = set(group)

@@ -37,6 +37,7 @@ from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, d
 from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, SHAPE_KINDS, AttributeBelief, Camera
 
 MAX_ATTRIBUTE_FRAMES = 6  # isolated frames used to decide shape (a fit per frame and primitive)
+INTERLEAVE_FRAMES = 3  # a sample of the other tracklet this close in time on both sides: the two take turns on one object
 DUPLICATE_SIZES = 1.5  # tracklets closer than this many object sizes (radii) on most common frames are one object (see _close_frames)
 KEEP_SHARE = 0.5  # on a frame two joined tracklets both hold, the better supported one's sample stays unless it weighs less than this share of the other's
 MAX_APPEARANCE_FRAMES = 16  # isolated frames used to decide colour / material (cheap per frame)
@@ -435,9 +436,29 @@ def _close_frames(a: LiftedTrack, b: LiftedTrack, size: float) -> int:
     "Duplicates within one and a half radii")."""
     common, ia, ib = np.intersect1d(a.frames, b.frames, return_indices=True)
     if common.size == 0:
-        return 0
+        return _interleaved_close_frames(a, b, size)
     close = np.linalg.norm(a.positions[ia, :2] - b.positions[ib, :2], axis=1) < DUPLICATE_SIZES * size
     return int(close.sum()) if close.mean() > 0.5 else 0
+
+
+def _interleaved_close_frames(a: LiftedTrack, b: LiftedTrack, size: float) -> int:
+    """_close_frames of two tracklets that share no frame but take turns on one object (each frame held
+    by one of them, as the tracker's pieces of one object cut at gaps are): a's samples that have a
+    sample of b at most INTERLEAVE_FRAMES before and after are compared with b's position interpolated
+    there."""
+    compared = close = 0
+    for frame, position in zip(a.frames, a.positions):
+        after = int(np.searchsorted(b.frames, frame))
+        if after == 0 or after == b.frames.size:
+            continue
+        f0, f1 = int(b.frames[after - 1]), int(b.frames[after])
+        if frame - f0 > INTERLEAVE_FRAMES or f1 - frame > INTERLEAVE_FRAMES:
+            continue
+        share = (frame - f0) / (f1 - f0)
+        between = (1.0 - share) * b.positions[after - 1, :2] + share * b.positions[after, :2]
+        compared += 1
+        close += int(np.linalg.norm(position[:2] - between) < DUPLICATE_SIZES * size)
+    return close if compared and close / compared > 0.5 else 0
 
 
 def _same_object(first: list[LiftedTrack], second: list[LiftedTrack], size: float) -> bool:

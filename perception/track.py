@@ -8,8 +8,12 @@ merges); a detection of another colour label is taken only by a track seen in
 the last RELABEL_MAX_GAP frames, or within GATE_BASE of its prediction after at most RELABEL_NEAR_MAX_GAP unseen frames. A segment holding two same-coloured tracks
 (objects that touch, also one merged into the other for up to SPLIT_MAX_GAP
 frames) and larger than one of them is split between them by k-means on pixel
-coordinates seeded at the predicted positions. Tracks seen in fewer than MIN_TRACK_FRAMES frames are dropped and
-ids are renumbered 0..K-1 by first appearance.
+coordinates seeded at the predicted positions. A track is then cut wherever it went unseen for more than
+MAX_TRACK_GAP frames: the widened gate of a lost track bridges to whatever of its colour shows up (a
+reflection of an object on a metal neighbour, seen on a frame here and there, then the object itself),
+and the pipeline's global association over the whole video (gates on motion, speed and appearance) is the
+place to bridge gaps. Tracks (pieces) seen in fewer than MIN_TRACK_FRAMES frames are dropped and ids are
+renumbered 0..K-1 by first appearance.
 """
 
 from __future__ import annotations
@@ -27,6 +31,7 @@ GATE_PER_MISSED_FRAME = 0.12  # m per unseen frame (0.04 cured POV-Ray dev scene
 GATE_MAX = 2.0  # m
 HUE_MISMATCH_COST = 1.0  # m-equivalent penalty: a colour label change is allowed but costly
 MIN_TRACK_FRAMES = 4
+MAX_TRACK_GAP = 4  # frames: a track unseen longer is cut there; global association (pipeline._associate) rejoins its pieces
 MIN_TRACK_AREA = 150  # px: a real object is larger than this in at least one frame
 SPLIT_SECOND_AREA = 0.5  # a segment larger than the biggest owner's usual area plus this share of the next one's holds them all
 SPLIT_MAX_GAP = 30  # frames: a track unseen this long still claims its part of a same-coloured segment it sits in
@@ -83,7 +88,8 @@ class HungarianTracker:
             for track in tracks:  # the colour label follows the majority of the track's pixels
                 if frame in track.detections:
                     track.hue_label = _majority_hue(track)
-        kept = [t for t in tracks if len(t.detections) >= MIN_TRACK_FRAMES and max(d.area for d in t.detections.values()) >= MIN_TRACK_AREA]
+        pieces = [piece for t in tracks for piece in _split_at_gaps(t, MAX_TRACK_GAP)]
+        kept = [t for t in pieces if len(t.detections) >= MIN_TRACK_FRAMES and max(d.area for d in t.detections.values()) >= MIN_TRACK_AREA]
         kept.sort(key=lambda t: (min(t.detections), t.id))
         for new_id, track in enumerate(kept):
             track.id = new_id
@@ -124,6 +130,26 @@ class HungarianTracker:
                 continue
             result.extend(_kmeans_split(det, np.array([p for _, p in owners])))
         return result
+
+
+def _split_at_gaps(track: TrackState, max_gap: int) -> list[TrackState]:
+    """The track cut wherever it went unseen for more than ``max_gap`` frames (pieces keep its id for now)."""
+    frames = sorted(track.detections)
+    runs, start = [], 0
+    for k in range(1, len(frames)):
+        if frames[k] - frames[k - 1] - 1 > max_gap:
+            runs.append(frames[start:k])
+            start = k
+    runs.append(frames[start:])
+    if len(runs) == 1:
+        return [track]
+    pieces = []
+    for run in runs:
+        piece = TrackState(id=track.id, hue_label=track.hue_label, detections={f: track.detections[f] for f in run},
+                           ground={f: track.ground[f] for f in run}, merged={f for f in track.merged if run[0] <= f <= run[-1]})
+        piece.hue_label = _majority_hue(piece)
+        pieces.append(piece)
+    return pieces
 
 
 def _majority_hue(track: TrackState) -> int:

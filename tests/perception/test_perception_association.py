@@ -121,3 +121,19 @@ def test_on_a_frame_both_hold_the_better_supported_tracklet_keeps_its_sample():
     by_frame = dict(zip(merged.frames.tolist(), merged.positions[:, 0]))
     assert all(abs(by_frame[f] - 0.01 * f) < 1e-9 for f in whole.frames.tolist())  # the object's own samples everywhere it has one
     assert all(abs(by_frame[f] - (0.15 + 0.01 * f)) < 1e-9 for f in range(50, 55))  # the piece fills the gap
+
+
+def test_two_tracklets_taking_turns_on_one_object_join():
+    """The tracker's pieces of one object cut at gaps can hold alternate frames (no frame in common):
+    compared at the other's interpolated position they are one object."""
+    first = _tracklet(0, [f for f in range(0, 104) if f < 96 or f in (99, 100, 102)], (0.0, 0.0), (0.01, 0.0), score=0.9)
+    second = _tracklet(1, [97, 98, 101, *range(103, 128)], (0.97, 0.0), (0.01, 0.0), score=0.8)
+    (merged,) = _associate([first, second], SIZE)
+    assert len(merged.frames) == len(first.frames) + len(second.frames)
+
+
+def test_two_objects_taking_turns_in_the_detections_stay_two():
+    # two same-looking objects side by side, 2.2 radii apart, each seen on alternate frames
+    first = _tracklet(0, range(0, 128, 2), (0.0, 0.0), (0.02, 0.0))
+    second = _tracklet(1, range(1, 128, 2), (0.02, 2.2 * SIZE), (0.02, 0.0))
+    assert len(_associate([first, second], SIZE)) == 2

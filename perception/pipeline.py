@@ -37,6 +37,7 @@ from world.observations import DEFAULT_OBJECT_SIZE, ObjectTrack, Observations, d
 from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, SHAPE_KINDS, AttributeBelief, Camera
 
 MAX_ATTRIBUTE_FRAMES = 6  # isolated frames used to decide shape (a fit per frame and primitive)
+MIN_CUT_PIECE_FRAMES = 10  # frames: a shorter piece of a cut track that joins nothing and never touches the border is dropped
 INTERLEAVE_FRAMES = 3  # a sample of the other tracklet this close in time on both sides: the two take turns on one object
 DUPLICATE_SIZES = 1.5  # tracklets closer than this many object sizes (radii) on most common frames are one object (see _close_frames)
 KEEP_SHARE = 0.5  # on a frame two joined tracklets both hold, the better supported one's sample stays unless it weighs less than this share of the other's
@@ -172,7 +173,19 @@ class PrimitiveLifter:
             return _redecide_attributes(merged, pooled, frames, segments)
 
         associated = _associate(lifted, self.size, appearance, explained=explained, decide=decide)
+        # A short piece of a track cut at a gap that joins nothing and appears and vanishes inside the image is
+        # what the tracker's widened gate had attached to that track (a shadow, a reflection), not an object:
+        # an object that is only briefly seen enters or leaves through the border.
+        alone = {t.id: len(t.frames) for t in lifted if states[t.id].cut and len(t.frames) < MIN_CUT_PIECE_FRAMES
+                 and not _at_border(states[t.id])}
+        associated = [t for t in associated if alone.get(t.id) != len(t.frames)]
         return _renumber(_untangle_contacts(associated, self.size, appearance))
+
+
+def _at_border(track: TrackState) -> bool:
+    """The track's first or last detection touches the image border."""
+    frames = sorted(track.detections)
+    return track.detections[frames[0]].touches_border or track.detections[frames[-1]].touches_border
 
 
 def mean_overlaps(scores: dict[str, list[float]]) -> dict[str, float]:

@@ -146,7 +146,8 @@ def _split_at_gaps(track: TrackState, max_gap: int) -> list[TrackState]:
     pieces = []
     for run in runs:
         piece = TrackState(id=track.id, hue_label=track.hue_label, detections={f: track.detections[f] for f in run},
-                           ground={f: track.ground[f] for f in run}, merged={f for f in track.merged if run[0] <= f <= run[-1]})
+                           ground={f: track.ground[f] for f in run}, merged={f for f in track.merged if run[0] <= f <= run[-1]},
+                           cut=True)
         piece.hue_label = _majority_hue(piece)
         pieces.append(piece)
     return pieces

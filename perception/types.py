@@ -72,6 +72,7 @@ class TrackState:
     detections: dict[int, Detection] = field(default_factory=dict)
     ground: dict[int, np.ndarray] = field(default_factory=dict)  # frame -> (2,) approx ground xy, m
     merged: set[int] = field(default_factory=set)  # frames where the segment was shared or split
+    cut: bool = False  # a piece of a track the tracker cut at a gap (track.MAX_TRACK_GAP)
 
 
 @dataclass(frozen=True)

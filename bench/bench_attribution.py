@@ -208,13 +208,9 @@ def swap_attributes(perceived: Observations, truth: Truth, assignment: dict[int,
             tracks.append(track)
             continue
         true_values = dict(zip(("color", "material", "shape"), truth.attributes[object_id]))
-        changes: dict = {}
-        if "color" in names:
-            changes["color"] = true_values["color"]
-        if "material" in names:
-            changes["material"] = true_values["material"]
-        if "shape" in names:
-            changes["shape"] = default_shape(true_values["shape"], DEFAULT_OBJECT_SIZE)
+        changes = {name: true_values[name] for name in names}
+        if "shape" in changes:
+            changes["shape"] = default_shape(changes["shape"], DEFAULT_OBJECT_SIZE)
         belief = track.attribute_belief
         if belief is not None and set(names) != {"color", "material", "shape"}:
             certain = {name: ((true_values[name], 1.0),) for name in names}

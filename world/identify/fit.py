@@ -1105,8 +1105,14 @@ def _mass_links(candidates: Sequence[CandidateCollision], log_ratios: Sequence[t
     _refine_component); without it, those with a local momentum estimate."""
     if not config.joint:
         return sorted({(a, b) for a, b, _ in log_ratios})
-    after = frames_in(config.mass_after_seconds, observations.fps)
-    return sorted(pair for pair, frame in _first_collision_frames(candidates).items() if frame + after < observations.num_frames)
+    return sorted(_pairs_with_response(candidates, observations, config.mass_after_seconds))
+
+
+def _pairs_with_response(candidates: Sequence[CandidateCollision], observations: Observations, seconds: float) -> frozenset[tuple[int, int]]:
+    """Pairs whose first candidate collision is at least ``seconds`` before the video's end: the video shows
+    that much of their response."""
+    after = frames_in(seconds, observations.fps)
+    return frozenset(pair for pair, frame in _first_collision_frames(candidates).items() if frame + after < observations.num_frames)
 
 
 def _flag_revisions(revisions: Sequence[MaterialRevision], reports: Sequence[ObjectFitReport]) -> tuple[ObjectFitReport, ...]:
@@ -1119,8 +1125,8 @@ def _late_pairs(candidates: Sequence[CandidateCollision], observations: Observat
     """Pairs whose first collision is less than FitConfig.restitution_after_seconds before the video's
     end: no stage of the joint fit frees their restitution (_refine_component), the video shows too
     little of the response to read it."""
-    after = frames_in(config.restitution_after_seconds, observations.fps)
-    return frozenset(pair for pair, frame in _first_collision_frames(candidates).items() if frame + after >= observations.num_frames)
+    seen = _pairs_with_response(candidates, observations, config.restitution_after_seconds)
+    return frozenset(_first_collision_frames(candidates)) - seen
 
 
 def _joint_refinement(

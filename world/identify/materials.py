@@ -45,7 +45,8 @@ RATIO_OUTLIER_SHARE = 0.2
 RATIO_SPAN = 2.0 * math.log(20.0)
 # A link counts only when the fit explains both bodies' tracks to within this RMS (m, a
 # quarter of an object's size): a mass ratio from a fit that misses the tracks is no
-# evidence. Chosen on the development sets (docs/benchmarks.md, "Materials from mass ratios").
+# evidence. Chosen on five development sets (docs/benchmarks.md, "Ninth round ...: material from the
+# mass ratios of collisions").
 MAX_LINK_RMSE = 0.05
 MAX_GROUP_BODIES = 12  # 2^12 assignments; a larger group keeps perception's beliefs
 REPORT_CHANGE = 0.1  # a revision that moves P(material) by at least this is flagged in the fit report
@@ -107,7 +108,8 @@ def revise_materials(world: World, links: Sequence[tuple[int, int]], density: Ma
     links: pairs of body ids whose collision identified their mass ratio.
     Only bodies with a material belief over the materials of ``density`` take
     part. rmse: body id -> the fit's RMSE (m) over its observed samples; when
-    given, a link counts only if both bodies are within MAX_LINK_RMSE. mass_groups: sets of bodies that share one mass scale (a contact-
+    given, a link counts only if both bodies are within MAX_LINK_RMSE.
+    mass_groups: sets of bodies that share one mass scale (a contact-
     connected component of the fit); when a member's material changes, the
     group's masses are scaled so that their geometric mean follows the
     members' prior masses (ratios unchanged, so the observed replay is too).
@@ -115,20 +117,13 @@ def revise_materials(world: World, links: Sequence[tuple[int, int]], density: Ma
     """
     bodies = {b.id: b for b in world.bodies}
     materials = tuple(density)
+    beliefs = {i: _material_belief(body, materials) for i, body in bodies.items()}
 
-    def believed(i: int) -> dict[str, float] | None:
-        belief = bodies[i].attribute_belief if i in bodies else None
-        if belief is None:
-            return None
-        values = {m: p for m, p in belief.distribution("material").items() if m in density}
-        total = sum(values.values())
-        return {m: values.get(m, 0.0) / total for m in materials} if total > 0 else None
+    def usable_body(i: int) -> bool:
+        fitted = rmse is None or rmse.get(i, math.inf) <= MAX_LINK_RMSE  # NaN (never observed) compares False
+        return beliefs.get(i) is not None and fitted
 
-    def fitted(i: int) -> bool:
-        return rmse is None or (math.isfinite(rmse.get(i, math.inf)) and rmse.get(i, math.inf) <= MAX_LINK_RMSE)
-
-    usable = [(a, b) for a, b in links
-              if a != b and believed(a) is not None and believed(b) is not None and fitted(a) and fitted(b)]
+    usable = [(a, b) for a, b in links if a != b and usable_body(a) and usable_body(b)]
     log_density = {i: math.log(bodies[i].mass / shape_volume(bodies[i].shape)) for pair in usable for i in pair}
     revisions: list[MaterialRevision] = []
     for group in connected_components((), usable):
@@ -136,7 +131,7 @@ def revise_materials(world: World, links: Sequence[tuple[int, int]], density: Ma
             continue
         members = set(group)
         edges = sorted({(min(a, b), max(a, b)) for a, b in usable if a in members})
-        priors = {i: believed(i) for i in group}
+        priors = {i: beliefs[i] for i in group}
         marginal = {i: dict.fromkeys(materials, 0.0) for i in group}
         evidence = 0.0
         for assignment in itertools.product(materials, repeat=len(group)):
@@ -170,6 +165,15 @@ def revise_materials(world: World, links: Sequence[tuple[int, int]], density: Ma
         for i in members:
             new_bodies[i] = replace(new_bodies[i], mass=new_bodies[i].mass * math.exp(shift))
     return replace(world, bodies=tuple(new_bodies[b.id] for b in world.bodies)), tuple(revisions)
+
+
+def _material_belief(body: Body, materials: tuple[str, ...]) -> dict[str, float] | None:
+    """The body's belief over ``materials`` (renormalised), or None without a belief that names one of them."""
+    if body.attribute_belief is None:
+        return None
+    values = {m: p for m, p in body.attribute_belief.distribution("material").items() if m in materials}
+    total = sum(values.values())
+    return {m: values.get(m, 0.0) / total for m in materials} if total > 0 else None
 
 
 def _with_material(body: Body, after: Mapping[str, float]) -> Body:

@@ -53,6 +53,7 @@ WEIGHT_EXTRAPOLATED = 0.05  # frames added through the border at constant veloci
 EXTRAPOLATION_BASE = 4  # frames at a track's end whose motion is extrapolated through the border
 MAX_EXTRAPOLATED_FRAMES = 10
 MAX_LINK_GAP = 40  # frames: longest gap (occlusion, lost detection) across which two tracklets are joined
+LINK_OVERLAP = 2  # samples a tracklet may hold before the one it continues ends (strays it was born on; left out of the link)
 LINK_GATE = 0.45  # m: largest distance between a tracklet's predicted position and the next one's start ...
 LINK_GATE_PER_FRAME = 0.02  # ... plus this per frame of gap (the prediction is held after 5 frames)
 LINK_SPEED_SLACK = 1.5  # the jump across a gap may be this much more than the faster tracklet end's speed allows ...
@@ -179,6 +180,7 @@ class PrimitiveLifter:
         alone = {t.id: len(t.frames) for t in lifted if states[t.id].cut and len(t.frames) < MIN_CUT_PIECE_FRAMES
                  and not _at_border(states[t.id])}
         associated = [t for t in associated if alone.get(t.id) != len(t.frames)]
+        associated = _without_shadows(associated, appearance, self.size)
         return _renumber(_untangle_contacts(associated, self.size, appearance))
 
 
@@ -391,8 +393,12 @@ def _link_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, n
     make (a resting object does not reappear a metre away). Appearance: colour likelihood from the whole
     tracklets, soft (a colour re-read after a contact still joins) but refused when clearly another colour.
     """
+    early = int(np.count_nonzero(later.frames <= earlier.frames[-1]))
+    if early > LINK_OVERLAP or later.frames.size - early < 2:
+        return np.inf
+    later = _after(later, early)
     gap = int(later.frames[0] - earlier.frames[-1])
-    if not 0 < gap <= MAX_LINK_GAP:
+    if gap > MAX_LINK_GAP:
         return np.inf
     colour = appearance_distance(appearance[earlier.id], appearance[later.id])
     if colour > MAX_LINK_APPEARANCE:
@@ -407,6 +413,12 @@ def _link_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, n
         return np.inf
     shape = 0.0 if earlier.attributes.shape == later.attributes.shape else SHAPE_MISMATCH_COST
     return distance / gate + colour / MAX_LINK_APPEARANCE + shape
+
+
+def _after(track: LiftedTrack, count: int) -> LiftedTrack:
+    """The tracklet without its first ``count`` samples."""
+    return replace(track, frames=track.frames[count:], positions=track.positions[count:], yaw=track.yaw[count:],
+                   visible=track.visible[count:], weights=track.weights[count:])
 
 
 def _support(track: LiftedTrack) -> float:
@@ -537,7 +549,8 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
         chain, k = [kept[head]], head
         while k in successor:
             k = successor[k]
-            chain.append(kept[k])
+            # the samples a continuation holds before its predecessor ends were left out of the link: strays
+            chain.append(_after(kept[k], int(np.count_nonzero(kept[k].frames <= chain[-1].frames[-1]))))
         result.append(_join(chain, appearance, decide) if len(chain) > 1 else chain[0])
     return result
 
@@ -666,6 +679,40 @@ def _untangle_contacts(tracks: list[LiftedTrack], size: float, appearance: dict[
                 (_, done), (a, b) = found  # the samples changed: find the later contacts again
             tracks[i], tracks[j] = a, b
     return tracks
+
+
+SHADOW_MIN_FRAMES = 10  # frames a shadow shares with its caster at least
+SHADOW_SHARE = 0.9  # ... and this share of its own frames (a shadow is never seen without its caster)
+SHADOW_TRAVEL_SIZES = 4.0  # object sizes the caster travels over those frames (at rest, anything keeps its offset)
+SHADOW_OFFSET_SIZES = 0.5  # object sizes: 90th percentile of the offset's deviation from its median (one light, one offset)
+SHADOW_NEAR_SIZES = 3.0  # object sizes: median distance from the caster (a shadow lies against its caster)
+SHADOW_HUELESS = 0.8  # hue-less share of a shadow's pixels at least (the floor darkened) ...
+CASTER_HUELESS = 0.5  # ... and of its caster's at most (a coloured object: which of the two is the shadow is clear)
+
+
+def _shadow_of(follower: LiftedTrack, caster: LiftedTrack, appearance: dict[int, np.ndarray], size: float) -> bool:
+    """``follower`` is ``caster``'s shadow read as an object: seen only with it, against it, at one plane offset
+    from it while it travels (a shadow cast by one light moves rigidly with its object; another object does so
+    only while pushed), hue-less where the caster is coloured (a floor darkened by the same light). Deep hard
+    shadows (Blender's sun, mean ratio to the floor about 0.4) are darker than background.DARK_OBJECT and so
+    segmented as objects; the per-pixel test cannot tell them from grey objects, the motion can."""
+    if appearance[follower.id][3] < SHADOW_HUELESS or appearance[caster.id][3] > CASTER_HUELESS:
+        return False
+    common, i_follower, i_caster = np.intersect1d(follower.frames, caster.frames, return_indices=True)
+    if common.size < max(SHADOW_MIN_FRAMES, SHADOW_SHARE * follower.frames.size):
+        return False
+    path = caster.positions[i_caster, :2]
+    if np.linalg.norm(np.diff(path, axis=0), axis=1).sum() < SHADOW_TRAVEL_SIZES * size:
+        return False
+    offset = follower.positions[i_follower, :2] - path
+    deviation = np.linalg.norm(offset - np.median(offset, axis=0), axis=1)
+    near = np.median(np.linalg.norm(offset, axis=1)) < SHADOW_NEAR_SIZES * size
+    return bool(near and np.percentile(deviation, 90) < SHADOW_OFFSET_SIZES * size)
+
+
+def _without_shadows(tracks: list[LiftedTrack], appearance: dict[int, np.ndarray], size: float) -> list[LiftedTrack]:
+    """The tracks less those that are another track's shadow (_shadow_of)."""
+    return [t for t in tracks if not any(_shadow_of(t, caster, appearance, size) for caster in tracks if caster is not t)]
 
 
 def _renumber(lifted: list[LiftedTrack]) -> list[LiftedTrack]:

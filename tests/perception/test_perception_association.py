@@ -137,3 +137,20 @@ def test_two_objects_taking_turns_in_the_detections_stay_two():
     first = _tracklet(0, range(0, 128, 2), (0.0, 0.0), (0.02, 0.0))
     second = _tracklet(1, range(1, 128, 2), (0.02, 2.2 * SIZE), (0.02, 0.0))
     assert len(_associate([first, second], SIZE)) == 2
+
+
+def test_a_tracklet_born_on_two_strays_before_its_predecessor_ends_continues_it():
+    # dev seed 7373, scene 1: the object's first tracklet ends at frame 27; the one that carries it on from 28
+    # was born on two stray detections at 23 and 25 (a piece of a neighbour, 0.6 m away)
+    before = _tracklet(0, range(0, 28), (0.0, 0.0), (0.02, 0.0))
+    after = _tracklet(1, range(28, 128), (0.02 * 28, 0.0), (0.02, 0.0))
+    strays = np.array([[0.9, 0.6, SIZE], [0.9, 0.6, SIZE]])
+    born_on_strays = replace(after, frames=np.concatenate([[23, 25], after.frames]), positions=np.concatenate([strays, after.positions]),
+                             yaw=np.full(102, np.nan), visible=np.ones(102, bool), weights=np.ones(102))
+    (joined,) = _associate([born_on_strays, before], SIZE)
+    assert np.array_equal(joined.frames, np.arange(128)) and np.allclose(joined.positions[:, 1], 0.0)  # no stray kept
+    # three samples before the other ends are more than strays: another object's tracklet
+    three = replace(born_on_strays, frames=np.concatenate([[21, 23, 25], after.frames]),
+                    positions=np.concatenate([strays[:1], strays, after.positions]), yaw=np.full(103, np.nan),
+                    visible=np.ones(103, bool), weights=np.ones(103))
+    assert len(_associate([three, before], SIZE)) == 2

@@ -61,6 +61,23 @@ OBJECTS = (
 )
 
 
+def paint_objects(image: np.ndarray, objects: list[tuple[str, str]], centres: list[np.ndarray]) -> np.ndarray:
+    """Ray-cast (kind, colour) primitives at ``centres`` into the (H, W, 3) float ``image`` in place, nearest in front,
+    lit from above; returns (H, W) bool where an object is."""
+    covered = np.zeros(image.shape[:2], dtype=bool)
+    depth = np.full(image.shape[:2], np.inf)
+    for (kind, colour), centre in zip(objects, centres):
+        window, mask = silhouette(CAMERA, kind, centre, SIZE, 0.3)
+        distance = np.linalg.norm(centre - np.asarray(CAMERA.position))
+        region = (slice(window.top, window.top + mask.shape[0]), slice(window.left, window.left + mask.shape[1]))
+        paint = mask & (distance < depth[region])
+        rows = np.linspace(1.15, 0.7, mask.shape[0])[:, None, None]  # lit from above
+        image[region][paint] = (np.asarray(CLEVR_PALETTE_RGB[colour], float) * rows * np.ones((1, mask.shape[1], 1)))[paint]
+        depth[region][paint] = distance
+        covered[region] |= mask
+    return covered
+
+
 def _render(seed: int) -> tuple[np.ndarray, np.ndarray]:
     """(FRAMES, H, W, 3) uint8 frames of OBJECTS over the checker floor with grainy soft shadows, and
     (FRAMES, H, W) bool: where an object or its shadow is."""
@@ -79,18 +96,7 @@ def _render(seed: int) -> tuple[np.ndarray, np.ndarray]:
             occlusion = np.where(penumbra, np.clip(occlusion + rng.normal(0, 0.12, occlusion.shape), 0, 1), occlusion)
             light = np.minimum(light, 1.0 - (1.0 - SHADOW_DEPTH) * occlusion)
         image = floor * light[..., None]
-        covered = light < 1.0
-        depth = np.full((CAMERA.height, CAMERA.width), np.inf)
-        for (kind, colour, _, _), centre in zip(OBJECTS, centres):
-            window, mask = silhouette(CAMERA, kind, centre, SIZE, 0.3)
-            distance = np.linalg.norm(centre - np.asarray(CAMERA.position))
-            region = (slice(window.top, window.top + mask.shape[0]), slice(window.left, window.left + mask.shape[1]))
-            paint = mask & (distance < depth[region])
-            rows = np.linspace(1.15, 0.7, mask.shape[0])[:, None, None]  # lit from above
-            image[region][paint] = (np.asarray(CLEVR_PALETTE_RGB[colour], float) * rows * np.ones((1, mask.shape[1], 1)))[paint]
-            depth[region][paint] = distance
-            covered[region] |= mask
-        touched.append(covered)
+        touched.append((light < 1.0) | paint_objects(image, [(kind, colour) for kind, colour, _, _ in OBJECTS], centres))
         frames.append(np.clip(image + rng.normal(0, 1.0, image.shape), 0, 255).astype(np.uint8))
     return np.stack(frames), np.stack(touched)
 

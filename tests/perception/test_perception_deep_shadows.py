@@ -1,0 +1,93 @@
+"""Deep hard shadows (a sun with little fill, as Blender's renders have them: the shadow keeps about 0.4 of the
+floor's light, tinted by the sky) are darker than background.DARK_OBJECT and so segmented as objects; the
+shadow is told from an object by its motion (pipeline._shadow_of): it moves rigidly with its caster.
+
+The video is painted in the test (a plain warm floor, two moving objects ray-cast with perception.geometry,
+each with a hard shadow at one offset), h264-encoded as a renderer's would be.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from perception.pipeline import _palette_appearance, _shadow_of, perceive_frames
+from perception.types import Attributes, LiftedTrack
+from perception.video import read_video
+from tests.perception.test_perception_background import CAMERA, SIZE, _centre_at, _encode, _ground_xy, paint_objects
+
+FRAMES = 48
+FLOOR_RGB = np.array([168.0, 137.0, 136.0])  # a warm floor (Blender dev seed 7707, scene 0)
+SHADOW_RATIO = np.array([0.39, 0.42, 0.46])  # the shadow's light per channel, measured on that scene
+LIGHT_SHIFT = np.array([-0.25, 0.12])  # m: the shadow's centre on the floor, from the object's
+OBJECTS = (("sphere", "red", (40, 210), (300, 280)), ("cube", "blue", (230, 70), (450, 200)))
+
+
+def _render(seed: int) -> np.ndarray:
+    rng = np.random.default_rng(seed)
+    ground = _ground_xy()
+    frames = []
+    for f in range(FRAMES):
+        t = f / (FRAMES - 1)
+        centres = [_centre_at(*(np.asarray(a) + t * (np.asarray(b) - np.asarray(a)))) for _, _, a, b in OBJECTS]
+        light = np.ones((CAMERA.height, CAMERA.width, 3))
+        for centre in centres:  # hard shadow: an ellipse on the floor, no penumbra
+            offset = (ground - (centre[:2] + LIGHT_SHIFT)) / np.array([0.35, 0.22])
+            light[np.linalg.norm(offset, axis=-1) < 1.0] = SHADOW_RATIO
+        image = FLOOR_RGB * light
+        paint_objects(image, [(kind, colour) for kind, colour, _, _ in OBJECTS], centres)
+        frames.append(np.clip(image + rng.normal(0, 1.0, image.shape), 0, 255).astype(np.uint8))
+    return np.stack(frames)
+
+
+@pytest.fixture(scope="module")
+def deep_shadow_video(tmp_path_factory) -> np.ndarray:
+    path = tmp_path_factory.mktemp("deep_shadows") / "deep.mp4"
+    _encode(path, _render(seed=11))
+    return read_video(path)[0]
+
+
+def test_deep_hard_shadows_are_not_objects(deep_shadow_video):
+    observations, inter = perceive_frames(deep_shadow_video, CAMERA)
+    assert len(inter["tracks"]) > len(OBJECTS)  # the shadows were tracked: the test exercises the motion rule
+    assert sorted(o.color for o in observations.objects) == ["blue", "red"]
+
+
+def _track(track_id: int, frames: range, start: tuple[float, float], velocity: tuple[float, float],
+           color: str = "red") -> LiftedTrack:
+    frames = np.asarray(list(frames), dtype=np.int64)
+    xy = np.asarray(start) + (frames - frames[0])[:, None] * np.asarray(velocity)
+    return LiftedTrack(track_id, Attributes(color, "sphere", "rubber", 1.0, shape_score=0.8), frames,
+                       np.column_stack([xy, np.full(len(frames), SIZE)]), np.full(len(frames), np.nan),
+                       np.ones(len(frames), bool), np.ones(len(frames)))
+
+
+def _appearance(*tracks: LiftedTrack) -> dict[int, np.ndarray]:
+    return {t.id: _palette_appearance(t.attributes.color) for t in tracks}
+
+
+def test_a_grey_track_moving_rigidly_with_a_coloured_one_is_its_shadow():
+    caster = _track(0, range(0, 60), (0.0, 0.0), (0.03, 0.01))
+    shadow = _track(1, range(0, 60), (-0.25, 0.12), (0.03, 0.01), color="gray")
+    assert _shadow_of(shadow, caster, _appearance(caster, shadow), SIZE)
+    assert not _shadow_of(caster, shadow, _appearance(caster, shadow), SIZE)  # the coloured one casts it
+
+
+def test_objects_that_only_look_or_move_like_a_shadow_are_kept():
+    caster = _track(0, range(0, 60), (0.0, 0.0), (0.03, 0.01))
+    coloured = _track(1, range(0, 60), (-0.25, 0.12), (0.03, 0.01), color="brown")  # pushed along its whole life
+    assert not _shadow_of(coloured, caster, _appearance(caster, coloured), SIZE)
+    # a grey object at rest until the caster reaches it, then pushed ahead of it
+    resting = _track(2, range(0, 30), (1.3, 0.43), (0.0, 0.0), color="gray")
+    pushed = _track(2, range(30, 60), (1.3, 0.43), (0.03, 0.01), color="gray")
+    grey = LiftedTrack(2, resting.attributes, np.concatenate([resting.frames, pushed.frames]),
+                       np.concatenate([resting.positions, pushed.positions]), np.full(60, np.nan), np.ones(60, bool), np.ones(60))
+    assert not _shadow_of(grey, caster, _appearance(caster, grey), SIZE)
+    # beside a caster at rest: nothing tells a shadow from an object
+    still = _track(3, range(0, 60), (0.0, 0.0), (0.0, 0.0))
+    beside = _track(4, range(0, 60), (-0.25, 0.12), (0.0, 0.0), color="gray")
+    assert not _shadow_of(beside, still, _appearance(still, beside), SIZE)
+    # seen long before the caster came
+    early = _track(5, range(0, 60), (-0.25, 0.12), (0.0, 0.0), color="gray")
+    late_caster = _track(6, range(40, 60), (0.0, 0.0), (0.05, 0.0))
+    assert not _shadow_of(early, late_caster, _appearance(early, late_caster), SIZE)

@@ -33,7 +33,7 @@ from world.identify.graph import connected_components
 from world.identify.jacobian import SecantJacobian
 from world.identify.materials import MaterialRevision, REPORT_CHANGE, prior_mass, revise_materials
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, late_departure, robust_residuals, tail_state
-from world.identify.segments import CandidateCollision, find_candidate_collisions, precise_tracks
+from world.identify.segments import CandidateCollision, contact_episode_starts, find_candidate_collisions, precise_tracks
 from world.observations import ObjectTrack, Observations
 from world.rollout import footprint_of, simulate
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
@@ -946,10 +946,12 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
     )
     anchor = _anchor(world, track_fits, observations, config) if usable else None
     provenance = {"fit": report.to_dict(), "source": dict(observations.source)}
-    observed = tuple(sorted({(min(c.bodies), max(c.bodies), c.frame) for c in candidates
+    precise_ids = precise_tracks(observations)
+    episodes = contact_episode_starts(candidates, observations, precise_ids)
+    observed = tuple(sorted({(min(c.bodies), max(c.bodies), c.frame) for c in episodes
                              if 0 <= c.frame < observations.num_frames}, key=lambda c: (c[2], c[0], c[1])))
     world = replace(world, provenance=provenance, anchor=anchor, observed_collisions=observed)
-    precise = sorted(precise_tracks(observations) & {t.id for t in usable})
+    precise = sorted(precise_ids & {t.id for t in usable})
     decided = frozenset((a, b) for i, a in enumerate(precise) for b in precise[i + 1 :])
     return with_replayed_collisions(world, config.simulator, decided), report
 

@@ -232,6 +232,34 @@ def _position_at(track: ObjectTrack, frame: int) -> np.ndarray | None:
     return (1 - share) * positions[index - 1, :2] + share * positions[index, :2]
 
 
+def _contact_lasts(first: ObjectTrack, second: ObjectTrack, start: int, end: int) -> bool:
+    """The two bodies stay within CONTACT_MARGIN (bounding circles) on every frame from ``start`` to ``end``
+    where both are seen."""
+    gaps = (_gap(first, second, probe) for probe in range(start, end + 1))
+    return all(gap <= CONTACT_MARGIN for gap in gaps if np.isfinite(gap))
+
+
+def contact_episode_starts(candidates: list[CandidateCollision], observations: Observations,
+                           precise: frozenset[int]) -> list[CandidateCollision]:
+    """The candidates less those of a pair of perceived (not precise) tracks whose earlier candidate's contact
+    lasted until them: bodies that never separated did not collide again (MuJoCo, the engine and the truth
+    count one collision per contact episode). Noisy tracks in a cluster of touching objects, or a push that
+    lasts several frames, give one pair change points a few frames apart: fitted as impulses they explain
+    the motion, but they are one collision of the record. Pairs of precise tracks are counted by touch
+    episodes already (touch_events); precise: precise_tracks(observations)."""
+    tracks = {t.id: t for t in observations.objects}
+    kept, earlier = [], {}
+    for candidate in sorted(candidates, key=lambda c: (c.frame, c.bodies)):
+        first, second = candidate.bodies
+        previous = earlier.get(candidate.bodies)
+        earlier[candidate.bodies] = candidate.frame
+        if previous is not None and not (first in precise and second in precise) and _contact_lasts(
+                tracks[first], tracks[second], previous, candidate.frame):
+            continue
+        kept.append(candidate)
+    return kept
+
+
 def approach_events(first: ObjectTrack, second: ObjectTrack, fps: float) -> list[int]:
     """Frames where two bodies touch while their closing speed drops: a collision seen from the pair.
 

@@ -33,7 +33,9 @@ truth; questions name objects by attributes, so ids do not change answers.
 
 Identification report per row (bench.metrics.score_world against MuJoCo):
 observed-window RMSE over visible frames, observed-window collision recall
-(5-frame tolerance), and the share of the world's bodies matched to an object
+of the fitted replay (5-frame tolerance), precision and recall of the world's
+record of observed collisions (World.observed_collisions, which explanatory
+answers use; same tolerance), and the share of the world's bodies matched to an object
 whose material is the object's (after identification revised it by mass
 ratios, world/identify/materials.py). The dataset must not overlap the fixtures (seed 12),
 bench_qa (4242), bench_perception (777) or any tuning set.
@@ -63,7 +65,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 from tqdm import tqdm
 
 from bench.bench_cached_answers import ungrounded_questions  # noqa: E402
-from bench.metrics import GroundTruth, score_world  # noqa: E402
+from bench.metrics import GroundTruth, match_events, score_world  # noqa: E402
 from perception.pipeline import perceive
 from physmind.local_server import local_server
 from planner.client import ToolClient
@@ -314,7 +316,10 @@ def _fit(observations: Observations, truth_path: Path, truth: Truth, candidates:
         "world": world_to_dict(world),
         "fit_seconds": seconds,
         "rmse": score.rmse,
-        "observed": (score.observed.true_positives, score.observed.predicted, score.observed.actual),
+        "observed": score.observed.counts(),
+        # The world's record of observed collisions (World.observed_collisions) against MuJoCo's.
+        "record": match_events([((a, b), frame) for a, b, frame in world.observed_collisions or ()],
+                               [((a, b), frame) for a, b, frame in truth.collisions]).counts(),
         "bodies": len(world.bodies),
         # The world's material of each body that is an object (relabelled id): right, judged.
         "materials": (sum(b.material == truth.attributes[b.id][1] for b in world.bodies if b.id in truth.attributes),
@@ -370,8 +375,9 @@ def attribute_scene(job: tuple) -> dict:
 
 
 def identification_table(results: list[dict]) -> str:
-    lines = ["| row | worlds | observed-window RMSE median (m) | p90 (m) | observed collision recall | world material right | fit s median |",
-             "|---|---|---|---|---|---|---|"]
+    lines = ["| row | worlds | observed-window RMSE median (m) | p90 (m) | observed collision recall | record of observed collisions P / R "
+             "| world material right | fit s median |",
+             "|---|---|---|---|---|---|---|---|"]
     for row in ROWS:
         if not any(row in r["rows"] for r in results):
             continue
@@ -381,9 +387,12 @@ def identification_table(results: list[dict]) -> str:
         rmse = [f["rmse"] for f in fits if np.isfinite(f["rmse"])]
         hits, actual = sum(f["observed"][0] for f in fits), sum(f["observed"][2] for f in fits)
         right, judged = (sum(f.get("materials", (0, 0))[k] for f in fits) for k in (0, 1))
+        records = [f["record"] for f in fits if "record" in f]  # caches written before the column have none
+        kept, recorded, true = (sum(r[k] for r in records) for k in range(3))
+        record = f"{kept / max(recorded, 1):.3f} / {kept / max(true, 1):.3f} ({kept}/{recorded}, {kept}/{true})" if records else "-"
         lines.append(
             f"| {row} | {len(fits)} | {np.median(rmse):.4f} | {np.percentile(rmse, 90):.4f} | {hits / max(actual, 1):.3f} ({hits}/{actual}) | "
-            f"{right / max(judged, 1):.3f} ({right}/{judged}) | "
+            f"{record} | {right / max(judged, 1):.3f} ({right}/{judged}) | "
             f"{statistics.median(f['fit_seconds'] for f in fits):.2f} |"
         )
     return "\n".join(lines)

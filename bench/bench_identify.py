@@ -196,26 +196,22 @@ def _evaluate(annotation: Path, noise: float, method: str, worlds: Path | None =
     reproduced = match_events(rollout_collisions(base, 0, observed_end), found)
     return {
         "ahead": ahead,
-        "kept": _counts(kept),
-        "reproduced": _counts(reproduced),
+        "kept": kept.counts(),
+        "reproduced": reproduced.counts(),
         "scene": int(index),
         "noise": noise,
         "method": method,
         "rmse": score.rmse,
-        "predictive": _counts(score.predictive),
-        "predictive_seen": _counts(predictive_seen),
-        "observed": _counts(score.observed),
+        "predictive": score.predictive.counts(),
+        "predictive_seen": predictive_seen.counts(),
+        "observed": score.observed.counts(),
         "counterfactual_f1": [c.f1 for c in score.counterfactual],
-        "counterfactual": [_counts(c) for c in score.counterfactual],
+        "counterfactual": [c.counts() for c in score.counterfactual],
         "seconds": seconds,
         "cpu_seconds": cpu_seconds,
         "budget_exhausted": budget_hit,
         "evaluations": evaluations,
     }
-
-
-def _counts(pr: PrecisionRecall) -> list[int]:
-    return [pr.true_positives, pr.predicted, pr.actual]
 
 
 def _sum(rows: list[dict], key: str) -> PrecisionRecall:

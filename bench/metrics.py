@@ -25,6 +25,10 @@ class PrecisionRecall:
     predicted: int
     actual: int
 
+    def counts(self) -> list[int]:
+        """[true positives, predicted, actual] (the JSON form of the benches)."""
+        return [self.true_positives, self.predicted, self.actual]
+
     @property
     def precision(self) -> float:
         return self.true_positives / self.predicted if self.predicted else 1.0

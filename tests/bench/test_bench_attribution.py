@@ -17,6 +17,7 @@ import pytest
 
 from bench.bench_attribution import (
     Truth,
+    identification_table,
     match_tracks,
     relabel,
     swap_attributes,
@@ -178,3 +179,11 @@ def test_unknown_rows_are_refused():
     from bench.bench_attribution import main
     with pytest.raises(SystemExit, match="unknown row"):
         main(["/nonexistent", "--rows", "from video,swap colours"])
+
+
+def test_identification_table_gives_the_records_precision_and_recall():
+    fit = {"rmse": 0.01, "observed": [1, 2, 2], "materials": [1, 1], "fit_seconds": 0.1}
+    table = identification_table([{"rows": {"from video": {**fit, "record": [3, 4, 5]}}},
+                                  {"rows": {"from video": {**fit, "record": [1, 1, 1]}}}])
+    assert "| 0.800 / 0.667 (4/5, 4/6) |" in table  # 4 of the 5 recorded collisions are MuJoCo's, 4 of its 6
+    assert "| - |" in identification_table([{"rows": {"from video": fit}}])  # a cache from before the column

@@ -392,6 +392,8 @@ def _link_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, n
     ``later``'s first position, and the jump across the gap must be one the tracklets' own speeds can
     make (a resting object does not reappear a metre away). Appearance: colour likelihood from the whole
     tracklets, soft (a colour re-read after a contact still joins) but refused when clearly another colour.
+    Up to LINK_OVERLAP samples of ``later`` before ``earlier`` ends (the strays its tracker track was born on)
+    are left out; more, and the two are seen at once: not one object's pieces in turn.
     """
     early = int(np.count_nonzero(later.frames <= earlier.frames[-1]))
     if early > LINK_OVERLAP or later.frames.size - early < 2:
@@ -503,9 +505,9 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
        common frames, or one explained by the other's object, are one object whatever colour or shape
        each was read as (two solid objects cannot be that close; a metal object split into a lit and a
        dark piece gives two such tracklets, the piece's own fit up to 1.5 radii off).
-    2. Fragments: a tracklet that starts after another one ended, near where that one was heading,
-       with a speed it could have and a similar colour, continues it (an occlusion, a merge with a
-       touching object, a lost detection, a colour re-read at a contact). All ends are assigned to
+    2. Fragments: a tracklet that starts after another one ended (but for up to LINK_OVERLAP strays), near
+       where that one was heading, with a speed it could have and a similar colour, continues it (an
+       occlusion, a merge with a touching object, a lost detection, a colour re-read at a contact). All ends are assigned to
        all starts at once (Hungarian, each tracklet continues at most one), not greedily.
     """
     appearance = dict(appearance) if appearance is not None else {t.id: _palette_appearance(t.attributes.color) for t in lifted}

@@ -395,10 +395,10 @@ def _link_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, n
     Up to LINK_OVERLAP samples of ``later`` before ``earlier`` ends (the strays its tracker track was born on)
     are left out; more, and the two are seen at once: not one object's pieces in turn.
     """
-    early = int(np.count_nonzero(later.frames <= earlier.frames[-1]))
-    if early > LINK_OVERLAP or later.frames.size - early < 2:
+    continued = _continuation(earlier, later)
+    if later.frames.size - continued.frames.size > LINK_OVERLAP or continued.frames.size < 2:
         return np.inf
-    later = _after(later, early)
+    later = continued
     gap = int(later.frames[0] - earlier.frames[-1])
     if gap > MAX_LINK_GAP:
         return np.inf
@@ -417,10 +417,11 @@ def _link_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, n
     return distance / gate + colour / MAX_LINK_APPEARANCE + shape
 
 
-def _after(track: LiftedTrack, count: int) -> LiftedTrack:
-    """The tracklet without its first ``count`` samples."""
-    return replace(track, frames=track.frames[count:], positions=track.positions[count:], yaw=track.yaw[count:],
-                   visible=track.visible[count:], weights=track.weights[count:])
+def _continuation(earlier: LiftedTrack, later: LiftedTrack) -> LiftedTrack:
+    """``later`` without its samples up to ``earlier``'s last frame (the strays a continuation may begin with)."""
+    count = int(np.count_nonzero(later.frames <= earlier.frames[-1]))
+    return replace(later, frames=later.frames[count:], positions=later.positions[count:], yaw=later.yaw[count:],
+                   visible=later.visible[count:], weights=later.weights[count:])
 
 
 def _support(track: LiftedTrack) -> float:
@@ -552,7 +553,7 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
         while k in successor:
             k = successor[k]
             # the samples a continuation holds before its predecessor ends were left out of the link: strays
-            chain.append(_after(kept[k], int(np.count_nonzero(kept[k].frames <= chain[-1].frames[-1]))))
+            chain.append(_continuation(chain[-1], kept[k]))
         result.append(_join(chain, appearance, decide) if len(chain) > 1 else chain[0])
     return result
 

@@ -371,6 +371,19 @@ def attribute_scene(job: tuple) -> dict:
     return result
 
 
+def missing_rows(cached: dict, rows: list[str]) -> tuple[str, ...]:
+    """The rows a cached scene result lacks (a cache written by a run with other --rows); none when its video
+    could not be perceived (every row but the oracle's needs it, and trying again gives the same failure)."""
+    return tuple(r for r in rows if r not in cached["rows"] and (r == "oracle tracks" or "perceive_error" not in cached))
+
+
+def merge_rows(cached: dict | None, fresh: dict) -> dict:
+    """A scene's cached result with the rows of a fresh run added (the fresh run's rows and perception win)."""
+    if cached is None:
+        return fresh
+    return cached | {k: v for k, v in fresh.items() if k != "rows"} | {"rows": cached["rows"] | fresh["rows"]}
+
+
 # -- tables ----------------------------------------------------------------------------------
 
 
@@ -444,12 +457,17 @@ def main(argv: list[str] | None = None) -> int:
     todo = []
     for entry in entries:
         cached = None if args.cache is None else args.cache / f"scene_{entry.scene_index:05d}.json"
-        if cached is not None and cached.is_file():
-            results[entry.scene_index] = json.loads(cached.read_text())
-        else:
-            todo.append((str(args.data), entry.scene_index, tuple(rows)))
+        result = json.loads(cached.read_text()) if cached is not None and cached.is_file() else None
+        missing = tuple(rows) if result is None else missing_rows(result, rows)
+        if result is not None:
+            results[entry.scene_index] = result
+        if missing and args.cached_only:
+            print(f"warning: scene {entry.scene_index}: rows {list(missing)} are not in the cache and count as unanswered (--cached-only)")
+        elif missing:
+            todo.append((str(args.data), entry.scene_index, missing))
 
     def keep(result: dict) -> None:
+        result = merge_rows(results.get(result["scene"]), result)
         results[result["scene"]] = result
         if args.cache is not None:
             args.cache.mkdir(parents=True, exist_ok=True)

@@ -187,3 +187,16 @@ def test_identification_table_gives_the_records_precision_and_recall():
                                   {"rows": {"from video": {**fit, "record": [1, 1, 1]}}}])
     assert "| 0.800 / 0.667 (4/5, 4/6) |" in table  # 4 of the 5 recorded collisions are MuJoCo's, 4 of its 6
     assert "| - |" in identification_table([{"rows": {"from video": fit}}])  # a cache from before the column
+
+
+def test_a_cached_scene_is_refitted_for_the_rows_it_lacks():
+    """A cache written with other --rows must not leave the new rows empty (they would score as unanswered)."""
+    from bench.bench_attribution import merge_rows, missing_rows
+    cached = {"scene": 3, "perceive_seconds": 2.0, "rows": {"from video": {"rmse": 0.01}}}
+    assert missing_rows(cached, ["from video", "swap shape", "oracle tracks"]) == ("swap shape", "oracle tracks")
+    assert missing_rows(cached, ["from video"]) == ()
+    failed = {"scene": 3, "perceive_error": "ValueError: no frames", "rows": {}}
+    assert missing_rows(failed, ["from video", "oracle tracks"]) == ("oracle tracks",)
+    merged = merge_rows(cached, {"scene": 3, "perceive_seconds": 2.5, "rows": {"swap shape": {"rmse": 0.02}}})
+    assert merged["rows"] == {"from video": {"rmse": 0.01}, "swap shape": {"rmse": 0.02}}
+    assert merged["perceive_seconds"] == 2.5

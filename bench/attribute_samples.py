@@ -25,7 +25,7 @@ import numpy as np
 from tqdm import tqdm
 
 from perception.attributes import color_votes
-from perception.background import AMBIGUOUS, FLOOR, OBJECT
+from perception.background import AMBIGUOUS, FLOOR, is_foreground
 from perception.geometry import silhouette
 from perception.material_model import appearance_windows
 from perception.pipeline import MAX_APPEARANCE_FRAMES, PrimitiveLifter, _isolated_frames, _spread, perceive_frames
@@ -57,7 +57,7 @@ class RecordingLifter(PrimitiveLifter):
                 ok = (ys >= 0) & (ys < sil.shape[0]) & (xs >= 0) & (xs < sil.shape[1])
                 mine[ys[ok], xs[ok]] = True
                 counts = (int((sil & mine).sum()), int((sil & (region == FLOOR)).sum()), int((sil & (region == AMBIGUOUS)).sum()),
-                          int((sil & ~mine & (region == OBJECT)).sum()), detection.area)
+                          int((sil & ~mine & is_foreground(region)).sum()), detection.area)
             self._counts.setdefault(kind, []).append(counts)
         return fits
 

@@ -23,7 +23,11 @@ Evidence in a frame (classify_pixels):
   noise) and not darker than a shadow can be -> floor / ambiguous; object = chroma changed
   (coloured objects), much darker than any shadow (grey and dark objects), or brighter than the
   floor (highlights, bright colours); ambiguous = shadow-like darkening of medium depth, which is
-  what a lit grey object looks like as well (the silhouette fit, lift.py, treats it as neither).
+  what a lit grey object looks like as well (the silhouette fit, lift.py, treats it as neither);
+  deep = floor chroma kept but darker than any soft shadow: a grey or dark object, or the core of a
+  hard shadow or of the contact shadow under an object (Blender's sun leaves 0.4 of the floor's
+  light there). Deep pixels are foreground (is_foreground); inside a coloured object's segment they
+  are its own shadow, which the shape decision leaves out (segment.own_shadow).
 """
 
 from __future__ import annotations
@@ -49,7 +53,12 @@ SHADOW_QUANTILE = 80  # percentile over time of a pixel's bright state (the floo
 SHADOW_LIFT = 1.15  # bright state / median (mean ratio) above which, with the chroma kept, the median was a shadow
 BACKGROUND_SAMPLES = 25  # frames spread over the video for the temporal statistics
 
-FLOOR, AMBIGUOUS, OBJECT = 0, 1, 2
+FLOOR, AMBIGUOUS, OBJECT, DEEP = 0, 1, 2, 3
+
+
+def is_foreground(labels: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the pixels segmentation groups into objects (OBJECT and DEEP labels)."""
+    return labels >= OBJECT
 
 
 @dataclass(frozen=True)
@@ -170,7 +179,7 @@ def floor_range(background: Background) -> FloorRange:
 
 
 def classify_pixels(frame: np.ndarray, background: Background, bounds: FloorRange | None = None) -> np.ndarray:
-    """(H, W) uint8 labels FLOOR / AMBIGUOUS / OBJECT for one (H, W, 3) uint8 frame; only pixels
+    """(H, W) uint8 labels FLOOR / AMBIGUOUS / OBJECT / DEEP for one (H, W, 3) uint8 frame; only pixels
     outside their floor range are examined (bounds: floor_range(background), once per video)."""
     bounds = floor_range(background) if bounds is None else bounds
     if frame.dtype != np.uint8:
@@ -193,6 +202,7 @@ def classify_pixels(frame: np.ndarray, background: Background, bounds: FloorRang
     limit = bounds.chroma_limit.ravel()[where]
     label = np.full(where.shape, AMBIGUOUS, dtype=np.uint8)
     label[(mean >= FLOOR_RATIO) & (chroma < limit)] = FLOOR
-    label[(chroma >= limit) | (mean < DARK_OBJECT) | (mean > BRIGHT_OBJECT)] = OBJECT
+    label[(chroma >= limit) | (mean > BRIGHT_OBJECT)] = OBJECT
+    label[(chroma < limit) & (mean < DARK_OBJECT)] = DEEP
     labels.ravel()[where] = label
     return labels

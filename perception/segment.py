@@ -14,7 +14,7 @@ import numpy as np
 from scipy import ndimage as ndi
 from tqdm import tqdm
 
-from perception.background import OBJECT, Background, FloorRange, classify_pixels, estimate_background, floor_range
+from perception.background import DEEP, Background, FloorRange, classify_pixels, estimate_background, floor_range, is_foreground
 from perception.geometry import primitive_window, ray_depths, window_rays
 from perception.lift import fit_primitive, initial_centre
 from perception.types import NEUTRAL, Detection, FrameSegments
@@ -31,6 +31,9 @@ MIN_SATURATION = 0.28  # (max - min) / max below which a pixel has no reliable h
 MIN_BRIGHTNESS = 28.0  # max channel below which a pixel's hue is noise
 NEUTRAL_REACH = 3  # px: hue-less pixels this close to a coloured segment belong to it
 MIN_SEGMENT_AREA = 60  # px: smaller pieces are noise or anti-aliasing fringes
+# A coloured segment's deep pixels (floor chroma, darker than a soft shadow: background.DEEP) are its own contact
+# or hard shadow, unless they are most of it (a dark object whose hue is faint).
+MAX_OWN_SHADOW = 0.5
 FOUR_CONNECTED = ndi.generate_binary_structure(2, 1)  # scipy.ndimage.label's default, built once rather than per call
 
 
@@ -73,8 +76,26 @@ def fill_holes(mask: np.ndarray) -> np.ndarray:
     return mask | ~outside[pieces]
 
 
+def own_shadow(labels: np.ndarray, detection: Detection) -> np.ndarray:
+    """(area,) bool: the detection's pixels that are its own shadow (MAX_OWN_SHADOW); none for a grey segment,
+    whose body is as deep as its shadow."""
+    if detection.hue_label == NEUTRAL:
+        return np.zeros(detection.area, dtype=bool)
+    deep = labels[detection.ys, detection.xs] == DEEP
+    return deep if deep.mean() <= MAX_OWN_SHADOW else np.zeros(detection.area, dtype=bool)
+
+
+def body_of(labels: np.ndarray, detection: Detection) -> Detection:
+    """The detection without its own shadow (own_shadow)."""
+    shadow = own_shadow(labels, detection)
+    if not shadow.any():
+        return detection
+    return Detection(detection.frame, detection.ys[~shadow], detection.xs[~shadow], detection.hue_label,
+                     detection.touches_border, detection.component, detection.split)
+
+
 def classify_frame(frame: np.ndarray, background: Background, bounds: FloorRange | None = None) -> np.ndarray:
-    """(H, W) uint8 FLOOR / AMBIGUOUS / OBJECT labels (background.classify_pixels; bounds: its floor range,
+    """(H, W) uint8 FLOOR / AMBIGUOUS / OBJECT / DEEP labels (background.classify_pixels; bounds: its floor range,
     computed once per video by the caller)."""
     return classify_pixels(frame, background, bounds)
 
@@ -84,7 +105,7 @@ def segment_frame(frame: np.ndarray, background: Background, frame_index: int = 
     """Segments of one (H, W, 3) uint8 frame (bounds: as classify_frame)."""
     labels = classify_frame(frame, background, bounds)
     height, width = labels.shape
-    components, count = ndi.label(labels == OBJECT, structure=FOUR_CONNECTED)
+    components, count = ndi.label(is_foreground(labels), structure=FOUR_CONNECTED)
     detections: list[Detection] = []
     if count == 0:
         return FrameSegments(frame_index, labels, ())

@@ -50,7 +50,7 @@ class Detection:
 class FrameSegments:
     """Segments of one frame plus its per-pixel evidence.
 
-    labels: (H, W) uint8 FLOOR / AMBIGUOUS / OBJECT (perception.background).
+    labels: (H, W) uint8 FLOOR / AMBIGUOUS / OBJECT / DEEP (perception.background).
     detections: the object candidates.
     """
 

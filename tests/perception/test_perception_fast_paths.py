@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 from scipy import ndimage as ndi
 
-from perception.background import (AMBIGUOUS, BRIGHT_OBJECT, CANDIDATE_DIFFERENCE, CHROMA_OBJECT, DARK_OBJECT, FLOOR,
-                                   FLOOR_RATIO, NOISE_MULTIPLE, OBJECT, Background, classify_pixels, fit_floor, floor_range)
+from perception.background import (AMBIGUOUS, BRIGHT_OBJECT, CANDIDATE_DIFFERENCE, CHROMA_OBJECT, DARK_OBJECT, DEEP,
+                                   FLOOR, FLOOR_RATIO, NOISE_MULTIPLE, OBJECT, Background, classify_pixels, fit_floor, floor_range)
 from perception.geometry import Box2D, ground_jacobian, window_rays
 from perception.lift import shift_scores
 from perception.segment import MIN_BRIGHTNESS, MIN_SATURATION, fill_holes, open_2x2, pixel_hue_labels
@@ -38,8 +38,10 @@ def _reference_labels(frame: np.ndarray, background: Background) -> np.ndarray:
             mean = ratio.mean()
             chroma = np.abs(ratio - mean).max() / max(mean, 0.05)
             limit = CHROMA_OBJECT + NOISE_MULTIPLE * noise[y, x] / max(image[y, x].mean(), 1.0)
-            if chroma >= limit or mean < DARK_OBJECT or mean > BRIGHT_OBJECT:
+            if chroma >= limit or mean > BRIGHT_OBJECT:
                 labels[y, x] = OBJECT
+            elif mean < DARK_OBJECT:
+                labels[y, x] = DEEP
             elif mean >= FLOOR_RATIO:
                 labels[y, x] = FLOOR
             else:
@@ -69,7 +71,7 @@ def test_classify_pixels_matches_the_per_pixel_rule(seed):
     frame[0, 0] = (0, 0, 0)
     frame[-1, -1] = (255, 255, 255)
     expected = _reference_labels(frame, background)
-    assert len(np.unique(expected)) == 3  # the crafted frame exercises every label
+    assert len(np.unique(expected)) == 4  # the crafted frame exercises every label
     np.testing.assert_array_equal(classify_pixels(frame, background, floor_range(background)), expected)
 
 

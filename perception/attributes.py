@@ -42,7 +42,7 @@ def color_votes(detections: list[Detection], frames: np.ndarray) -> np.ndarray:
     """(len(COLORS) + 1,) pixel counts per palette label over the detections; index 0 = NEUTRAL (no hue), k + 1 = COLORS[k]."""
     votes = np.zeros(len(COLORS) + 1)
     for det in detections:
-        labels = pixel_hue_labels(frames[det.frame][det.ys, det.xs])
+        labels = pixel_hue_labels(frames[det.frame][det.ys, det.xs], dark_hues=True)
         votes += np.bincount(labels + 1, minlength=len(COLORS) + 1)
     return votes
 

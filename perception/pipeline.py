@@ -359,7 +359,7 @@ def track_appearance(track: TrackState, frames: np.ndarray, count: int = APPEARA
     for frame in _spread(sorted(track.detections), count):
         det = track.detections[frame]
         rgb = frames[frame][det.ys, det.xs]
-        labels = pixel_hue_labels(rgb)
+        labels = pixel_hue_labels(rgb, dark_hues=True)
         hued = rgb[labels != NEUTRAL].astype(np.float64)
         chroma_sum += (hued / np.maximum(hued.sum(axis=1, keepdims=True), 1.0)).sum(axis=0)
         coloured += len(hued)

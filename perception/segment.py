@@ -28,7 +28,12 @@ _PROTOTYPES = _PROTOTYPES.astype(np.float32)
 _PROTOTYPE_NORMS = (_PROTOTYPES ** 2).sum(axis=1)
 
 MIN_SATURATION = 0.28  # (max - min) / max below which a pixel has no reliable hue
-MIN_BRIGHTNESS = 28.0  # max channel below which a pixel's hue is noise
+MIN_BRIGHTNESS = 28.0  # max channel below which a pixel's hue is noise for segmentation ...
+# ... and for a whole track's colour, unless its channels spread this much (grey levels): a dark but clearly
+# coloured pixel (Blender's dark metal bodies, max channel about 23 with a spread of 20). Dark hue-less pixels
+# spread at most 8 (99.9th percentile over grey segments of Blender, MuJoCo and POV-Ray development videos).
+# Not for segmentation: there the colour bled into dark contact zones between objects made pieces of its own.
+DARK_HUE_SPREAD = 12.0
 NEUTRAL_REACH = 3  # px: hue-less pixels this close to a coloured segment belong to it
 MIN_SEGMENT_AREA = 60  # px: smaller pieces are noise or anti-aliasing fringes
 # A coloured segment's deep pixels (floor chroma, darker than a soft shadow: background.DEEP) are its own contact
@@ -37,12 +42,16 @@ MAX_OWN_SHADOW = 0.5
 FOUR_CONNECTED = ndi.generate_binary_structure(2, 1)  # scipy.ndimage.label's default, built once rather than per call
 
 
-def pixel_hue_labels(rgb: np.ndarray) -> np.ndarray:
-    """(P,) colour labels (index into COLORS, or NEUTRAL) of (P, 3) RGB pixels, by nearest palette chromaticity."""
+def pixel_hue_labels(rgb: np.ndarray, dark_hues: bool = False) -> np.ndarray:
+    """(P,) colour labels (index into COLORS, or NEUTRAL) of (P, 3) RGB pixels, by nearest palette chromaticity;
+    dark_hues: pixels below MIN_BRIGHTNESS keep a hue when they spread DARK_HUE_SPREAD (a track's colour)."""
     red, green, blue = (rgb[:, c].astype(np.float32) for c in range(3))  # per channel: reductions over 3 columns are slow
     high = np.maximum(np.maximum(red, green), blue)
     low = np.minimum(np.minimum(red, green), blue)
-    hued = (high - low >= MIN_SATURATION * np.maximum(high, 1.0)) & (high >= MIN_BRIGHTNESS)
+    bright_enough = high >= MIN_BRIGHTNESS
+    if dark_hues:
+        bright_enough |= high - low >= DARK_HUE_SPREAD
+    hued = (high - low >= MIN_SATURATION * np.maximum(high, 1.0)) & bright_enough
     labels = np.full(len(rgb), NEUTRAL, dtype=np.int64)
     if hued.any():
         values = np.stack([red[hued], green[hued], blue[hued]], axis=1)

@@ -14,8 +14,8 @@ from perception.background import (AMBIGUOUS, BRIGHT_OBJECT, CANDIDATE_DIFFERENC
                                    FLOOR, FLOOR_RATIO, NOISE_MULTIPLE, OBJECT, Background, classify_pixels, fit_floor, floor_range)
 from perception.geometry import Box2D, ground_jacobian, window_rays
 from perception.lift import shift_scores
-from perception.segment import MIN_BRIGHTNESS, MIN_SATURATION, fill_holes, open_2x2, pixel_hue_labels
-from perception.types import NEUTRAL
+from perception.segment import DARK_HUE_SPREAD, MIN_BRIGHTNESS, MIN_SATURATION, fill_holes, open_2x2, pixel_hue_labels
+from perception.types import NEUTRAL, Detection
 from world.camera import look_at_camera, pixel_rays, project
 from world.types import CLEVR_PALETTE_RGB, COLORS
 
@@ -131,12 +131,13 @@ def test_a_ring_is_filled_and_a_notched_ring_is_not():
     assert not fill_holes(notched)[4, 4]
 
 
-def _reference_hues(rgb: np.ndarray) -> np.ndarray:
+def _reference_hues(rgb: np.ndarray, dark_hues: bool = False) -> np.ndarray:
     chromatic = [c for c in COLORS if c != "gray"]
     out = np.full(len(rgb), NEUTRAL)
     for k, pixel in enumerate(rgb.astype(np.float64)):
         high, low = pixel.max(), pixel.min()
-        if high - low >= MIN_SATURATION * max(high, 1.0) and high >= MIN_BRIGHTNESS:
+        bright_enough = high >= MIN_BRIGHTNESS or (dark_hues and high - low >= DARK_HUE_SPREAD)
+        if high - low >= MIN_SATURATION * max(high, 1.0) and bright_enough:
             chroma = pixel / max(pixel.sum(), 1.0)
             distances = [np.sum((chroma - np.asarray(CLEVR_PALETTE_RGB[c], float) / sum(CLEVR_PALETTE_RGB[c])) ** 2) for c in chromatic]
             out[k] = COLORS.index(chromatic[int(np.argmin(distances))])
@@ -151,6 +152,28 @@ def test_pixel_hues_are_the_nearest_palette_chromaticity():
     expected = _reference_hues(rgb)
     assert (expected == NEUTRAL).any() and len(set(expected.tolist())) >= 6
     np.testing.assert_array_equal(pixel_hue_labels(rgb), expected)
+    dark = np.clip(palette[rng.integers(0, len(palette), 400)] * rng.uniform(0.02, 0.2, (400, 1)) + rng.normal(0, 3, (400, 3)), 0, 255)
+    dark = dark.astype(np.uint8)
+    expected_dark = _reference_hues(dark, dark_hues=True)
+    assert (expected_dark != _reference_hues(dark)).any()  # the crafted dark pixels exercise the dark rule
+    np.testing.assert_array_equal(pixel_hue_labels(dark, dark_hues=True), expected_dark)
+
+
+def test_dark_paints_keep_their_hue_for_a_tracks_colour_and_dark_greys_have_none():
+    """Each paint darkened to a brightest channel of 25 grey levels (Blender's dark metal bodies reach 23)."""
+    chromatic = [c for c in COLORS if c != "gray"]
+    paints = np.array([CLEVR_PALETTE_RGB[c] for c in chromatic], float)
+    dark = np.round(paints * 25.0 / paints.max(axis=1, keepdims=True)).astype(np.uint8)
+    assert (pixel_hue_labels(dark) == NEUTRAL).all()  # segmentation: below MIN_BRIGHTNESS, no hue
+    assert [COLORS[k] for k in pixel_hue_labels(dark, dark_hues=True)] == chromatic
+    dark_greys = np.array([[20, 16, 13], [25, 25, 27], [12, 9, 6]], np.uint8)
+    assert (pixel_hue_labels(dark_greys, dark_hues=True) == NEUTRAL).all()
+    # a track's colour is voted with the dark rule: a dark brown body is brown, not grey
+    from perception.attributes import color_of
+    frames = np.zeros((1, 12, 12, 3), np.uint8)
+    frames[0, 2:10, 2:10] = dark[chromatic.index("brown")]
+    ys, xs = np.nonzero(frames[0].any(axis=-1))
+    assert color_of([Detection(0, ys.astype(np.int32), xs.astype(np.int32), NEUTRAL, False, 1)], frames) == "brown"
 
 
 def _reference_fit_floor(median: np.ndarray, iterations: int = 4) -> np.ndarray:

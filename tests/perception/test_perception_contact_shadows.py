@@ -4,7 +4,7 @@ Under a sun with little fill (Blender's renders) the floor next to an object's b
 light, darker than background.DARK_OBJECT, so the crescent of shadow that shows below a sphere joins its
 segment; a cylinder's silhouette covers the crescent and a sphere's does not, and spheres read as cylinders
 (4 of 18 spheres on the Blender development set, seed 7707). The video is painted in the test (a plain floor,
-a sphere and a cylinder ray-cast with perception.geometry, each over a hard shadow disc that reaches past
+two spheres and a cylinder ray-cast with perception.geometry, each over a hard shadow disc that reaches past
 its base towards the camera), h264-encoded as a renderer's would be.
 """
 

@@ -25,7 +25,7 @@ from perception.background import AMBIGUOUS, FLOOR
 from perception.geometry import silhouette
 from perception.lift import Fit
 from perception.material_model import appearance_windows, metal_probability
-from perception.segment import own_shadow, pixel_hue_labels
+from perception.segment import pixel_hue_labels
 from perception.types import NEUTRAL, Detection, FrameSegments
 from world.types import COLORS, MATERIALS, SHAPE_KINDS, Camera
 
@@ -70,10 +70,11 @@ def material_of(detections: list[Detection], frames: np.ndarray, segments: list[
     return ("metal" if probability > 0.5 else "rubber"), probability
 
 
-def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: Detection, labels: np.ndarray) -> float:
+def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: Detection, labels: np.ndarray,
+                  shadow: np.ndarray) -> float:
     """J_shape = |S & D| / (|D| + |S & floor| + AMBIGUOUS_WEIGHT |S & ambiguous|) of the primitive's silhouette S
     at its fitted pose and the detection D (labels: the frame's (H, W) pixel labels), in [0, 1]; the
-    detection's own shadow (segment.own_shadow) counts as ambiguous, not as D.
+    detection's own shadow (``shadow``: segment.own_shadow's (area,) mask) counts as ambiguous, not as D.
 
     The fit's own overlap counts shadow-like (ambiguous) pixels neither for nor against, which is right
     for placing a primitive (a grey rubber object is only half certain) but lets a larger primitive win
@@ -83,7 +84,6 @@ def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: D
     if window.empty:
         return 0.0
     region = labels[window.top:window.bottom, window.left:window.right]
-    shadow = own_shadow(labels, detection)
     ys, xs = detection.ys - window.top, detection.xs - window.left
     inside = (ys >= 0) & (ys < sil.shape[0]) & (xs >= 0) & (xs < sil.shape[1])
     covered = np.zeros(detection.area, dtype=bool)

@@ -28,7 +28,7 @@ from perception.attributes import (
 )
 from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
-from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, body_of, pixel_hue_labels
+from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, body_of, own_shadow, pixel_hue_labels
 from perception.track import HungarianTracker
 from perception.types import NEUTRAL, Attributes, Detection, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
@@ -103,9 +103,7 @@ class PrimitiveLifter:
         self.size = object_size
 
     def shape_fits(self, camera: Camera, detection: Detection, labels: np.ndarray) -> dict[str, Fit]:
-        """Per primitive kind, its best fit to one detection (labels: the frame's (H, W) pixel labels) without
-        its own shadow (segment.body_of: a sphere's contact shadow would draw the sphere's fit down onto it)."""
-        detection = body_of(labels, detection)
+        """Per primitive kind, its best fit to one detection (labels: the frame's (H, W) pixel labels)."""
         start = initial_centre(camera, detection, self.size)
         return {"sphere": fit_primitive(camera, "sphere", start, self.size, 0.0, labels, detection),
                 "cylinder": fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, detection),
@@ -116,8 +114,10 @@ class PrimitiveLifter:
         scores = {kind: [] for kind in SHAPE_KINDS}
         for frame in frames_used:
             det, labels = track.detections[frame], segments[frame].labels
-            for kind, fit in self.shape_fits(camera, det, labels).items():
-                scores[kind].append(shape_overlap(camera, kind, fit, self.size, det, labels))
+            # fitted without the segment's own shadow: a sphere's contact shadow would draw its fit down onto it
+            shadow = own_shadow(labels, det)
+            for kind, fit in self.shape_fits(camera, body_of(det, shadow), labels).items():
+                scores[kind].append(shape_overlap(camera, kind, fit, self.size, det, labels, shadow))
         return scores
 
     def decide_shape(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> tuple[str, float, float]:

@@ -94,9 +94,8 @@ def own_shadow(labels: np.ndarray, detection: Detection) -> np.ndarray:
     return deep if deep.mean() <= MAX_OWN_SHADOW else np.zeros(detection.area, dtype=bool)
 
 
-def body_of(labels: np.ndarray, detection: Detection) -> Detection:
-    """The detection without its own shadow (own_shadow)."""
-    shadow = own_shadow(labels, detection)
+def body_of(detection: Detection, shadow: np.ndarray) -> Detection:
+    """The detection without its own shadow (``shadow``: own_shadow's (area,) mask)."""
     if not shadow.any():
         return detection
     return Detection(detection.frame, detection.ys[~shadow], detection.xs[~shadow], detection.hue_label,

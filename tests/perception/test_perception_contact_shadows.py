@@ -68,11 +68,11 @@ def test_own_shadow_is_a_coloured_segments_deep_part():
     coloured = _detection(labels, hue_label=3)
     shadow = own_shadow(labels, coloured)
     assert shadow.sum() == 30 and np.all(coloured.ys[shadow] >= 12)
-    assert body_of(labels, coloured).area == 100
+    assert body_of(coloured, shadow).area == 100
     # a grey segment's body is as deep as its shadow: nothing is told apart
     assert not own_shadow(labels, _detection(labels, hue_label=NEUTRAL)).any()
     # mostly deep: a dark object whose hue is faint, not a shadow
     labels[2:12, 4:14] = DEEP
     labels[2:2 + int(10 * (1 - MAX_OWN_SHADOW)) - 1, 4:14] = OBJECT
     dark = _detection(labels, hue_label=3)
-    assert not own_shadow(labels, dark).any() and body_of(labels, dark) is dark
+    assert not own_shadow(labels, dark).any() and body_of(dark, own_shadow(labels, dark)) is dark

@@ -35,13 +35,17 @@ def test_a_push_is_one_collision_through_perceptions_noise(seed):
         assert len(candidates) > 1  # the noise made several change points of the push (the rule is exercised)
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2, 3])
-def test_a_pair_that_separates_and_meets_again_collided_twice(seed):
-    # a sphere hits another (e 0.9), which bounces off a heavy cube back into the first one
+def _bounce_back():
+    """MuJoCo: a sphere hits another (e 0.9), which bounces off a heavy cube back into the first one."""
     first = replace(_spec(0, "sphere", (-1.4, 0.0), (3.0, 0.0), 20.0), restitution=0.9)
     second = replace(_spec(1, "sphere", (-0.6, 0.0), (0.0, 0.0), 20.0), restitution=0.9)
     wall = replace(_spec(0, "cube", (0.4, 0.0), (0.0, 0.0), 800.0), object_id=2, color="green", restitution=0.9)
-    result = simulate(SceneSpec(0, CAMERA, (first, second, wall), observed_frames=70, future_frames=0))
+    return simulate(SceneSpec(0, CAMERA, (first, second, wall), observed_frames=70, future_frames=0))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_a_pair_that_separates_and_meets_again_collided_twice(seed):
+    result = _bounce_back()
     hits = _collisions(result, (0, 1))
     assert len(hits) == 2
     observations = _perceived(result, (0, 1, 2), ("sphere", "sphere", "cube"), seed, {})
@@ -51,10 +55,7 @@ def test_a_pair_that_separates_and_meets_again_collided_twice(seed):
 
 def test_precise_tracks_keep_their_touch_episodes():
     # oracle-like tracks (no noise): touches are counted by geometry already, the rule leaves them alone
-    first = replace(_spec(0, "sphere", (-1.4, 0.0), (3.0, 0.0), 20.0), restitution=0.9)
-    second = replace(_spec(1, "sphere", (-0.6, 0.0), (0.0, 0.0), 20.0), restitution=0.9)
-    wall = replace(_spec(0, "cube", (0.4, 0.0), (0.0, 0.0), 800.0), object_id=2, color="green", restitution=0.9)
-    result = simulate(SceneSpec(0, CAMERA, (first, second, wall), observed_frames=70, future_frames=0))
+    result = _bounce_back()
     observations = _perceived(result, (0, 1, 2), ("sphere", "sphere", "cube"), 0, {})
     exact = replace(observations, objects=tuple(replace(t, positions=np.round(result.positions[t.frames, k], 4))
                                                 for k, t in enumerate(observations.objects)))

@@ -20,7 +20,9 @@ The events feed :mod:`planner.program` (the same interpreter that computes the
 ground truth from MuJoCo), so semantics cannot drift. Where a program cannot
 run on the world, the executor says why and decides only what follows without
 a guess: an object the world lacks (never in view) takes part in no event;
-an option's event the rollout lacks is not listed; an explained event that
+an option's event the rollout lacks is not listed (except where a predictive question's presupposition decides:
+"which event will happen next" with every option missing from the continuation takes the pair that comes closest,
+stated as uncertain); an explained event that
 occurs several times is decided by its first occurrence where the occurrences disagree (stated as uncertain);
 an explained event the world lacks in the video is stood in for by the world's nearest evidence of it (the
 pair's first touch or closest approach; the object's first entry/exit) and stated as uncertain;
@@ -357,9 +359,13 @@ class VideoExecutor:
 
         answers = []
         all_groundings = list(groundings)
+        contacts: dict[int, Mapping[str, Any]] = {}
         for k, (text, choice_program, parse_error) in enumerate(choices):
             answers.append(self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
-                                               removed, all_groundings, membership_only=absent_removal, question_bound=bound))
+                                               removed, all_groundings, membership_only=absent_removal, question_bound=bound,
+                                               contacts=contacts))
+        if question_type == "predictive" and _asks_next_event(program):
+            answers = _presupposed_next_event(answers, contacts)
         used = sorted({*shared_calls, *(i for a in answers for i in a.tool_calls)})
         distinct = tuple({(g.reference, g.object_ids): g for g in all_groundings}.values())
         return Answer(question, question_type, program, tuple(answers), method=method, groundings=distinct,
@@ -457,10 +463,12 @@ class VideoExecutor:
     def _answer_choice(self, k: int, text: str, choice_program: Sequence[str] | None, parse_error: str | None,
                        program: tuple[str, ...], question_type: str, scene: ProgramScene,
                        reference: tuple[EventRecord, ...] | None, removed: int | None, all_groundings: list[Grounding],
-                       membership_only: bool = False, question_bound: list[int] | None = None) -> ChoiceAnswer:
+                       membership_only: bool = False, question_bound: list[int] | None = None,
+                       contacts: dict[int, Mapping[str, Any]] | None = None) -> ChoiceAnswer:
         """One verdict. ``membership_only``: the question program cannot run (its removed object is
         absent), so the option is tested against ``reference`` directly, as ``belong_to`` does.
         ``question_bound``: the grounded object ids of the question program's references.
+        ``contacts``: filled with option k's check_contact result when corroborated.
         The stages: parse -> ground (:func:`_ungrounded_option`) -> run (:meth:`_run_option`, or
         :func:`_option_from_selection` when the program does not apply) -> facts per value kind
         (:data:`OPTION_FACTS`) -> corroboration."""
@@ -497,6 +505,8 @@ class VideoExecutor:
             if note is not None:
                 facts.append(note[0])
                 calls.append(note[1])
+                if contacts is not None:
+                    contacts[k] = note[2]
                 if question_type == "predictive" and result == "no" and not negated:
                     near = self._within_prediction_spread(note[2])
                     if near is not None:
@@ -556,6 +566,30 @@ class VideoExecutor:
                 f"{result.get('status')} (first frame {readable(result.get('first_frame'))}, "
                 f"nearest {readable(result.get('nearest_distance'))} m{change})",
                 self.world.last_call.index, result)
+
+
+def _asks_next_event(program: Sequence[str]) -> bool:
+    """The question asks which of its options happens after the video (``unseen_events belong_to``, not negated)."""
+    return bool(program) and "unseen_events" in program and program[-1] == "belong_to"
+
+
+def _presupposed_next_event(answers: list[ChoiceAnswer], contacts: Mapping[int, Mapping[str, Any]]) -> list[ChoiceAnswer]:
+    """"Which event will happen next?" presupposes that one of its events happens. When the continuation makes
+    none of them (two or more options, every one judged wrong), the option whose pair comes closest in the
+    continuation (check_contact's nearest distance, ``contacts`` by option index) is judged to happen, stated as
+    uncertain: its error after the video grows with time (PREDICTION_SPREAD), so a miss there is weak evidence,
+    and the closest pair is the best of it. Any other case is left as decided."""
+    if len(answers) < 2 or any(a.verdict != "wrong" for a in answers):
+        return answers
+    gaps = {k: float(c["nearest_distance"]) for k, c in contacts.items() if c.get("nearest_distance") is not None}
+    if not gaps:
+        return answers
+    chosen = min(gaps, key=gaps.__getitem__)
+    contact = contacts[chosen]
+    note = (f"uncertain: the question presupposes that one of its events happens next and the continuation makes none "
+            f"of them; this option's pair comes closest ({readable(contact['nearest_distance'])} m at frame "
+            f"{readable(contact.get('nearest_frame'))}): judged to happen")
+    return [replace(a, verdict="correct", facts=(*a.facts, note)) if a.choice_id == chosen else a for a in answers]
 
 
 NEGATED_FACT = "the question is negated: the option is correct when the event/object is NOT listed"

@@ -78,9 +78,11 @@ Rules:
 - Observed events are those before the video's last frame (observed_frames); later events are predictions.
 - For "what happens if X is removed", replay without X (simulate_edit with edit_type remove_object) and look at the
   collisions before the end of the video in that rollout.
-- For "which event will happen next", look at events beyond the observed frames.
+- For "which event will happen next", look at events beyond the observed frames. The question presupposes that one
+  of its events happens: if the continuation shows none of them, the pair that comes closest (check_contact's
+  nearest_distance) is the answer; say it is uncertain.
 - For "responsible for" questions, an event's causes are the earlier events of the objects involved, recursively.
-- Judge every choice independently; several or none may be correct.
+- Otherwise judge every choice independently; several or none may be correct.
 Finish by calling submit_answer (or replying with the same JSON) with one verdict per choice and the evidence."""
 
 

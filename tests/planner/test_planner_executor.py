@@ -330,3 +330,42 @@ def test_a_predictive_near_miss_within_the_predictions_spread_is_judged_a_collis
     assert answer.verdicts == [expected]
     judged = [f for f in answer.choices[0].facts if "judged a collision" in f]
     assert len(judged) == (expected == "correct") and all("uncertain" in f for f in judged)
+
+
+def _passing_cubes_world(offset: float):
+    """The red cube slides along x past the resting blue one (their sides ``offset - 0.4`` m apart at the closest,
+    about 1.6 s after the video); the green one rests 2 m off its path. The engine makes no collision."""
+    cube = Shape("cube", half_extent=0.2)
+    return World(bodies=(Body(0, cube, BodyState((-2.0, offset, 0.2), (0.30, 0.0, 0.0)), friction=0.001, color="red", material="metal"),
+                         Body(1, cube, BodyState((0.0, 0.0, 0.2)), friction=0.001, color="blue", material="rubber"),
+                         Body(2, cube, BodyState((0.0, 2.0 + offset, 0.2)), friction=0.001, color="green", material="rubber")),
+                 fps=25.0, observed_frames=128, camera=look_at_camera((0.0, -9.0, 6.0), (0.0, 1.0, 0.0)), id="passing")
+
+
+@pytest.mark.parametrize("offset", [0.5, 0.8])
+def test_which_event_happens_next_picks_the_closest_pair_when_the_continuation_makes_none(tool_client, offset):
+    """"Which event will happen next?" presupposes one of its events: when the continuation makes neither
+    collision (both pairs miss by more than the prediction's spread), the pair that comes closer is judged to
+    happen, stated as uncertain; the other stays wrong."""
+    world = _passing_cubes_world(offset)
+    assert not _collision_pairs(simulate(world, horizon_frames=math.ceil(128 * 1.4)))
+    executor = VideoExecutor(tool_client.create_world(world_to_dict(world)))
+    options = ["The red cube collides with the green cube", "The red cube collides with the blue cube"]
+    answer = executor.answer_text("Which event will happen next?", options)
+    assert answer.verdicts == ["wrong", "correct"]
+    judged = [f for f in answer.choices[1].facts if "presupposes" in f]
+    assert len(judged) == 1 and "uncertain" in judged[0] and not any("presupposes" in f for f in answer.choices[0].facts)
+    reversed_answer = executor.answer_text("Which event will happen next?", options[::-1])
+    assert reversed_answer.verdicts == ["correct", "wrong"]  # the evidence decides, not the option's position
+
+
+def test_which_event_happens_next_keeps_a_single_option_and_a_collision_the_continuation_makes(tool_client):
+    """No forced choice with one option (nothing to rank), nor when the continuation makes one of the events."""
+    executor = VideoExecutor(tool_client.create_world(world_to_dict(_passing_cubes_world(0.8))))
+    assert executor.answer_text("Which event will happen next?", ["The red cube collides with the blue cube"]).verdicts == ["wrong"]
+    hit = _passing_cubes_world(0.2)  # the red cube's path crosses the blue one's
+    assert (0, 1) in _collision_pairs(simulate(hit, horizon_frames=math.ceil(128 * 1.4)), at_least=128)
+    executor = VideoExecutor(tool_client.create_world(world_to_dict(hit)))
+    answer = executor.answer_text("Which event will happen next?",
+                                  ["The red cube collides with the green cube", "The red cube collides with the blue cube"])
+    assert answer.verdicts == ["wrong", "correct"] and not any("presupposes" in f for c in answer.choices for f in c.facts)

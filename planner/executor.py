@@ -14,7 +14,10 @@ fetches, lazily and once per video, everything the CLEVRER programs need:
 * ``counterfact_events(obj)``: ``simulate_edit(remove_object, obj)``, one
   edited rollout per removed object, reused by every question of the video,
   with ``compare_rollouts`` for the pairs the removal adds or removes and
-  ``check_contact`` on the edited rollout for every collision option.
+  ``check_contact`` on the edited rollout for every collision option; a
+  collision of the world's record of the video that the replay does not
+  reproduce, and whose causes do not involve the removed object, happens in
+  the counterfactual too (the replay cannot tell what the removal does to it).
 
 The events feed :mod:`planner.program` (the same interpreter that computes the
 ground truth from MuJoCo), so semantics cannot drift. Where a program cannot
@@ -222,13 +225,41 @@ class VideoExecutor:
                 calls = [self.world.last_call.index]
                 records = list(result["collisions"]) + list(result["in_out_events"])
                 events = clevrer_events(records, float(self.summary["fps"]))
+                kept = self._unreplayed_but_unaffected(object_id)
+                if kept:
+                    events = sorted(events + kept, key=_event_order)
                 rollout_id = result["rollout_id"]
                 comparison = self.world.call("compare_rollouts", edited_rollout_id=rollout_id)
                 calls.append(self.world.last_call.index)
                 note = (f"rollout {rollout_id} (object {object_id} removed): collision pairs added "
                         f"{comparison['added_pairs']}, removed {comparison['removed_pairs']}")
+                if kept:
+                    note += ("; kept from the world's record of the video (the replay does not reproduce them and "
+                             f"object {object_id} takes no part in their causes): " + ", ".join(describe_event(e) for e in kept))
                 self._counterfactual[object_id] = (events, rollout_id, tuple(calls), note)
         return self._counterfactual[object_id]
+
+    def _unreplayed_but_unaffected(self, removed: int) -> list[EventRecord]:
+        """Collisions of the world's record of the video that its replay does not reproduce (no collision of the pair
+        within the debounce window of the recorded frame) and whose causes (ancestors in the causal traces) do not
+        involve the removed object: the replay cannot say what the removal does to them, and the video says nothing
+        of it changes them, so they happen in the counterfactual too."""
+        recorded = self.observed_collisions()
+        if not recorded:
+            return []
+        window = frames_in(COLLISION_DEBOUNCE_SECONDS, float(self.summary["fps"]))
+        replayed = [e for e in self.base_events() if e.kind == "collision"]
+        scene = self.scene()
+        kept = []
+        for event in recorded:
+            if removed in event.objects:
+                continue
+            if any(set(e.objects) == set(event.objects) and abs(e.frame - event.frame) <= window for e in replayed):  # type: ignore[operator]
+                continue
+            if any(removed in cause.objects for cause in causal_ancestors(scene, event)):
+                continue
+            kept.append(event)
+        return kept
 
     def observed_collisions(self) -> list[EventRecord] | None:
         """The collisions the world keeps as seen in the video (get_world_summary), or None when the

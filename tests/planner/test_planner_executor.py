@@ -369,3 +369,26 @@ def test_which_event_happens_next_keeps_a_single_option_and_a_collision_the_cont
     answer = executor.answer_text("Which event will happen next?",
                                   ["The red cube collides with the green cube", "The red cube collides with the blue cube"])
     assert answer.verdicts == ["wrong", "correct"] and not any("presupposes" in f for c in answer.choices for f in c.facts)
+
+
+def test_a_recorded_collision_the_replay_misses_happens_in_a_counterfactual_that_does_not_touch_its_causes(tool_client, six_world):
+    """The record of the video holds two collisions the replay does not make: red-gray at frame 3 (no earlier event
+    of either object) and purple-gray at frame 100 (caused through purple's chain 0-1, 1-2, 2-3, 3-4). Removing the
+    purple object cannot touch the first, which therefore happens in that counterfactual; removing the red one is
+    an ancestor of the second, which the replay decides (no collision)."""
+    rollout = simulate(six_world)
+    replayed = tuple((min(e.bodies), max(e.bodies), e.frame) for e in rollout.events
+                     if e.kind == "collision" and e.frame < six_world.observed_frames)
+    assert not any(5 in c[:2] for c in replayed)
+    record = tuple(sorted(replayed + ((0, 5, 3), (4, 5, 100)), key=lambda c: c[2]))
+    executor = VideoExecutor(tool_client.create_world(world_to_dict(dataclasses.replace(six_world, observed_collisions=record))))
+    kept = executor.answer_text("Which of the following will happen if the purple object is removed?",
+                                ["The red object collides with the gray object", "The blue object collides with the gray object"])
+    assert kept.verdicts == ["correct", "wrong"]
+    assert any("kept from the world's record" in fact and "objects 0 and 5" in fact for fact in kept.facts)
+    caused = executor.answer_text("Which of the following will happen if the red object is removed?",
+                                  ["The purple object collides with the gray object"])
+    assert caused.verdicts == ["wrong"]
+    replay_only = VideoExecutor(tool_client.create_world(world_to_dict(six_world))).answer_text(
+        "Which of the following will happen if the purple object is removed?", ["The red object collides with the gray object"])
+    assert replay_only.verdicts == ["wrong"]  # without the record the replay decides

@@ -220,3 +220,23 @@ def test_an_object_missing_from_the_world_takes_part_in_no_event(tool_client, si
     # Removing an object the world does not contain changes nothing: the factual collisions answer.
     assert removed_absent.verdicts == ["correct", "wrong"]
     assert any("cyan object matches no object" in f for f in removed_absent.facts)
+
+
+def test_an_explanatory_question_is_grounded_where_the_world_has_its_explained_event(tool_client, six_document):
+    """Perception read the gray object (5) as yellow, a little likelier than the yellow one (3). "The collision
+    between the yellow object and the purple object" presupposes that collision: the world has it with object 3
+    only, so both the question and the option that names the yellow object are grounded to 3, and the verdicts
+    equal those on the true world."""
+    question = "Which of the following is responsible for the collision between the yellow object and the purple object?"
+    choices = ["the presence of the red object", "the collision between the green object and the yellow object"]
+    truth = VideoExecutor(tool_client.create_world(six_document)).answer_text(question, choices)
+    misread = copy.deepcopy(six_document)
+    misread["bodies"][5]["color"] = "yellow"
+    _believed(misread, 3, {"yellow": 0.5, "gray": 0.5}, 128)
+    _believed(misread, 5, {"yellow": 0.6, "gray": 0.4}, 128)
+    attributes_only = ground_phrase("the yellow object", objects_from_summary(
+        VideoExecutor(tool_client.create_world(misread)).summary))
+    assert attributes_only.object_id == 5  # by its attributes alone the phrase names the misread object
+    perceived = VideoExecutor(tool_client.create_world(misread)).answer_text(question, choices)
+    assert truth.verdicts == ["correct", "correct"] and perceived.verdicts == truth.verdicts
+    assert any("presupposes its explained event" in f and "'the yellow object' -> object 3" in f for f in perceived.facts)

@@ -749,8 +749,9 @@ def _presupposed_grounding(program: Sequence[str], scene: ProgramScene,
     distinct_queries = [g.query for g in groundings]
 
     def score(ids: tuple[int, ...], shares: tuple[float, ...]) -> float:
-        targets = _explained_event_candidates(program, scene, list(ids))
-        return math.prod(shares) * (1.0 if targets else MISSED_EVENT_LIKELIHOOD)
+        targets = _explained_event_candidates(program, scene, list(ids)) or ()
+        seen = any(e.frame is not None and e.frame < scene.observed_frames for e in targets)  # explained events are in the video
+        return math.prod(shares) * (1.0 if seen else MISSED_EVENT_LIKELIHOOD)
 
     current = tuple(g.object_id for g in groundings)
     current_shares = tuple(1.0 if g.status != "inferred" else (g.probability or 0.0) for g in groundings)

@@ -736,10 +736,10 @@ def _explained_event_candidates(program: Sequence[str], scene: ProgramScene,
 def _presupposed_grounding(program: Sequence[str], scene: ProgramScene,
                            groundings: list[Grounding]) -> tuple[list[Grounding], str] | None:
     """An explanatory question presupposes its explained event. When its references are inferred (ambiguous
-    attributes), each assignment of them to objects (the PRESUPPOSITION_CANDIDATES likeliest per reference,
-    distinct) is weighed by its likelihood shares times 1 when the world has the explained event with those
-    objects, MISSED_EVENT_LIKELIHOOD when not; the best assignment, when it differs from the attribute-only
-    grounding, replaces it (with the fact that says so). None: nothing changes."""
+    attributes) and the world lacks the explained event (in the video) with the objects they were grounded to,
+    each other assignment (the PRESUPPOSITION_CANDIDATES likeliest objects per reference, distinct) with which
+    the world has it is weighed by its likelihood shares, the grounding by attributes by its shares times
+    MISSED_EVENT_LIKELIHOOD; the best replaces the grounding (with the fact that says so). None: nothing changes."""
     if _explained_event_kind(program) is None or not any(g.status == "inferred" for g in groundings):
         return None
     if any(g.status == "undecided" for g in groundings):
@@ -748,21 +748,23 @@ def _presupposed_grounding(program: Sequence[str], scene: ProgramScene,
                list(g.probabilities[:PRESUPPOSITION_CANDIDATES]) for g in groundings]
     distinct_queries = [g.query for g in groundings]
 
-    def score(ids: tuple[int, ...], shares: tuple[float, ...]) -> float:
+    def has_event(ids: tuple[int, ...]) -> bool:
         targets = _explained_event_candidates(program, scene, list(ids)) or ()
-        seen = any(e.frame is not None and e.frame < scene.observed_frames for e in targets)  # explained events are in the video
-        return math.prod(shares) * (1.0 if seen else MISSED_EVENT_LIKELIHOOD)
+        return any(e.frame is not None and e.frame < scene.observed_frames for e in targets)  # explained events are in the video
 
     current = tuple(g.object_id for g in groundings)
-    current_shares = tuple(1.0 if g.status != "inferred" else (g.probability or 0.0) for g in groundings)
-    best, best_score = current, score(current, current_shares)
+    if has_event(current):
+        return None
+    # the grounding by attributes contradicts the presupposition: an assignment that satisfies it replaces it when
+    # its likelihood beats the contradicted one's times MISSED_EVENT_LIKELIHOOD
+    best, best_score = current, math.prod(1.0 if g.status != "inferred" else (g.probability or 0.0) for g in groundings) * MISSED_EVENT_LIKELIHOOD
     for combination in itertools.product(*options):
         ids = tuple(i for i, _ in combination)
         # distinct references name distinct objects (equal queries one object)
         if any(ids[a] == ids[b] and distinct_queries[a] != distinct_queries[b] for a in range(len(ids)) for b in range(a)):
             continue
-        value = score(ids, tuple(p for _, p in combination))
-        if value > best_score:
+        value = math.prod(p for _, p in combination)
+        if value > best_score and has_event(ids):
             best, best_score = ids, value
     if best == current:
         return None

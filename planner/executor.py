@@ -30,7 +30,8 @@ occurs several times is decided by its first occurrence where the occurrences di
 an explained event the world lacks in the video is stood in for by the world's nearest evidence of it (the
 pair's first touch or closest approach; the object's first entry/exit) and stated as uncertain;
 a reference that matches several objects or none is decided by the attribute
-probabilities (planner.grounding), the choice and its probability stated in
+probabilities (planner.grounding) or, in an explanatory question whose explained event the world lacks with
+that choice, by the question's presupposition (the likeliest objects with which the world has it), the choice and its probability stated in
 the facts (docs/planner.md). The
 ``trajectory_only`` mode is the ablation of the paper's Figure 4: no
 intervention is executed and a counterfactual is answered from the factual
@@ -64,7 +65,7 @@ QUESTION_TAILS = ("belong_to",)
 # that size (docs/benchmarks.md, "Predictive near misses"), while inside the video it is millimetres, so
 # counterfactual replays keep their verdicts.
 PREDICTION_SPREAD = 0.02
-# Grounding under an explanatory question's presupposition (_presupposed_grounding): the likeliest references per
+# Grounding under an explanatory question's presupposition (_presupposed_grounding): the likeliest objects per
 # ambiguous reference that are weighed, and the likelihood that the world lacks an event the video shows (1 - the
 # recall of the record of observed collisions from video: 0.92 on the held-out looks, 0.71 on Blender; 0.8 taken).
 PRESUPPOSITION_CANDIDATES = 3

@@ -82,6 +82,7 @@ Rules:
   of its events happens: if the continuation shows none of them, the pair that comes closest (check_contact's
   nearest_distance) is the answer; say it is uncertain.
 - For "responsible for" questions, an event's causes are the earlier events of the objects involved, recursively.
+  The explained event happened: when a description fits several objects, take the one with which it did.
 - Otherwise judge every choice independently; several or none may be correct.
 Finish by calling submit_answer (or replying with the same JSON) with one verdict per choice and the evidence."""
 

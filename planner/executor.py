@@ -261,7 +261,7 @@ class VideoExecutor:
         for event in recorded:
             if removed in event.objects:
                 continue
-            if any(set(e.objects) == set(event.objects) and abs(e.frame - event.frame) <= window for e in replayed):  # type: ignore[operator]
+            if any(_same_event(e, event) and abs(e.frame - event.frame) <= window for e in replayed):  # type: ignore[operator]
                 continue
             if any(removed in cause.objects for cause in causal_ancestors(scene, event)):
                 continue
@@ -747,7 +747,7 @@ def _presupposed_grounding(program: Sequence[str], scene: ProgramScene,
         return None
     options = [[(g.object_id, 1.0)] if g.status != "inferred" else
                list(g.probabilities[:PRESUPPOSITION_CANDIDATES]) for g in groundings]
-    distinct_queries = [g.query for g in groundings]
+    queries = [g.query for g in groundings]
 
     def has_event(ids: tuple[int, ...]) -> bool:
         targets = _explained_event_candidates(program, scene, list(ids)) or ()
@@ -762,7 +762,7 @@ def _presupposed_grounding(program: Sequence[str], scene: ProgramScene,
     for combination in itertools.product(*options):
         ids = tuple(i for i, _ in combination)
         # distinct references name distinct objects (equal queries one object)
-        if any(ids[a] == ids[b] and distinct_queries[a] != distinct_queries[b] for a in range(len(ids)) for b in range(a)):
+        if any(ids[a] == ids[b] and queries[a] != queries[b] for a in range(len(ids)) for b in range(a)):
             continue
         value = math.prod(p for _, p in combination)
         if value > best_score and has_event(ids):

@@ -311,27 +311,6 @@ def test_an_explained_exit_missing_from_the_video_is_decided_from_the_worlds_lat
     assert any("uncertain" in fact and "frame 140" in fact and "frame 127" in fact for fact in answer.facts)
 
 
-@pytest.mark.parametrize("offset, expected", [(0.41, "correct"), (0.5, "wrong")])
-def test_a_predictive_near_miss_within_the_predictions_spread_is_judged_a_collision(tool_client, offset, expected):
-    """The red cube slides past the resting blue one after the video, its side `offset - 0.4` m from the blue
-    one's at about frame 167 (1.6 s after the video): 1 cm is inside the continuation's spread there
-    (PREDICTION_SPREAD x 1.6 s), 10 cm is not. The engine makes no collision in either case."""
-    from planner.executor import PREDICTION_SPREAD
-
-    cube = Shape("cube", half_extent=0.2)
-    world = World(bodies=(Body(0, cube, BodyState((-2.0, offset, 0.2), (0.30, 0.0, 0.0)), friction=0.001, color="red", material="metal"),
-                          Body(1, cube, BodyState((0.0, 0.0, 0.2)), friction=0.001, color="blue", material="rubber")),
-                  fps=25.0, observed_frames=128, camera=look_at_camera((0.0, -9.0, 6.0), (0.0, 1.0, 0.0)), id="near-miss")
-    horizon = math.ceil(128 * 1.4)
-    assert not _collision_pairs(simulate(world, horizon_frames=horizon))
-    assert 0.41 - 0.4 < PREDICTION_SPREAD * 1.5 < 0.5 - 0.4  # the two cases straddle the spread
-    executor = VideoExecutor(tool_client.create_world(world_to_dict(world)))
-    answer = executor.answer_text("Which event will happen next?", ["The red cube collides with the blue cube"])
-    assert answer.verdicts == [expected]
-    judged = [f for f in answer.choices[0].facts if "judged a collision" in f]
-    assert len(judged) == (expected == "correct") and all("uncertain" in f for f in judged)
-
-
 def _passing_cubes_world(offset: float):
     """The red cube slides along x past the resting blue one (their sides ``offset - 0.4`` m apart at the closest,
     about 1.6 s after the video); the green one rests 2 m off its path. The engine makes no collision."""
@@ -340,6 +319,24 @@ def _passing_cubes_world(offset: float):
                          Body(1, cube, BodyState((0.0, 0.0, 0.2)), friction=0.001, color="blue", material="rubber"),
                          Body(2, cube, BodyState((0.0, 2.0 + offset, 0.2)), friction=0.001, color="green", material="rubber")),
                  fps=25.0, observed_frames=128, camera=look_at_camera((0.0, -9.0, 6.0), (0.0, 1.0, 0.0)), id="passing")
+
+
+@pytest.mark.parametrize("offset, expected", [(0.41, "correct"), (0.5, "wrong")])
+def test_a_predictive_near_miss_within_the_predictions_spread_is_judged_a_collision(tool_client, offset, expected):
+    """The red cube slides past the resting blue one after the video, its side `offset - 0.4` m from the blue
+    one's at about frame 167 (1.6 s after the video): 1 cm is inside the continuation's spread there
+    (PREDICTION_SPREAD x 1.6 s), 10 cm is not. The engine makes no collision in either case."""
+    from planner.executor import PREDICTION_SPREAD
+
+    world = _passing_cubes_world(offset)
+    horizon = math.ceil(128 * 1.4)
+    assert not _collision_pairs(simulate(world, horizon_frames=horizon))
+    assert 0.41 - 0.4 < PREDICTION_SPREAD * 1.5 < 0.5 - 0.4  # the two cases straddle the spread
+    executor = VideoExecutor(tool_client.create_world(world_to_dict(world)))
+    answer = executor.answer_text("Which event will happen next?", ["The red cube collides with the blue cube"])
+    assert answer.verdicts == [expected]
+    judged = [f for f in answer.choices[0].facts if "judged a collision" in f]
+    assert len(judged) == (expected == "correct") and all("uncertain" in f for f in judged)
 
 
 @pytest.mark.parametrize("offset", [0.5, 0.8])

@@ -49,7 +49,8 @@ from typing import Any, Iterable, Literal, Mapping, Sequence
 from planner.answer import Answer, ChoiceAnswer, readable
 from planner.client import ToolCallError, WorldHandle
 from planner.grammar import ParseError
-from planner.grounding import AttributeQuery, Grounding, WorldObject, bound_ids, failed, ground_program, objects_from_summary
+from planner.grounding import (AttributeQuery, Grounding, WorldObject, bound_ids, failed, ground_program, ground_question,
+                               objects_from_summary)
 from planner.parser import parse_choice, parse_question
 from planner.program import EventRecord, ObjectRecord, ProgramError, ProgramScene, causal_ancestors, execute
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
@@ -325,7 +326,10 @@ class VideoExecutor:
         method = "trajectory_only" if self.config.mode == "trajectory_only" else "program"
         try:
             objects = self.objects
-            groundings = ground_program(program, objects)
+            # one grounding for the whole question: the question's and its choices' references together
+            programs = {k: tuple(p) for k, (_, p, _) in enumerate(choices) if p is not None}
+            grounded = ground_question([program, *programs.values()], objects)
+            groundings, choice_groundings = grounded[0], dict(zip(programs, grounded[1:]))
         except (ToolCallError, ValueError) as error:
             undecided = tuple(ChoiceAnswer(k, text, None if p is None else tuple(p), None, error=str(error)) for k, (text, p, _) in enumerate(choices))
             return Answer(question, question_type, program, undecided, method=method, error=str(error), seconds=time.perf_counter() - started)
@@ -391,10 +395,12 @@ class VideoExecutor:
                     facts.append(note)
                     scene = replace(scene, events=tuple(sorted((*scene.events, stand_in), key=_event_order)), _cache={})
                     return self._answer_each_occurrence(question, question_type, program, choices, scene, (stand_in,),
-                                                        groundings, shared_calls, facts, method, started, presupposed)
+                                                        groundings, shared_calls, facts, method, started, presupposed,
+                                                        choice_groundings)
                 if targets is not None and len(targets) > 1:
                     return self._answer_each_occurrence(question, question_type, program, choices, scene, targets,
-                                                        groundings, shared_calls, facts, method, started, presupposed)
+                                                        groundings, shared_calls, facts, method, started, presupposed,
+                                                        choice_groundings)
                 reference, reference_fact = self._reference_list(program, scene, bound)
                 if reference_fact:
                     facts.append(reference_fact)
@@ -409,7 +415,7 @@ class VideoExecutor:
         for k, (text, choice_program, parse_error) in enumerate(choices):
             answers.append(self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
                                                removed, all_groundings, membership_only=absent_removal, question_bound=bound,
-                                               contacts=contacts, presupposed=presupposed))
+                                               contacts=contacts, presupposed=presupposed, grounded=choice_groundings.get(k)))
         if question_type == "predictive" and _asks_next_event(program):
             answers = _presupposed_next_event(answers, contacts)
         used = sorted({*shared_calls, *(i for a in answers for i in a.tool_calls)})
@@ -418,7 +424,7 @@ class VideoExecutor:
                       facts=tuple(facts), tool_calls=tuple(used), seconds=time.perf_counter() - started)
 
     def _answer_each_occurrence(self, question, question_type, program, choices, scene, targets, groundings, shared_calls,
-                                facts, method, started, presupposed=None) -> Answer:
+                                facts, method, started, presupposed=None, choice_groundings=None) -> Answer:
         """The explained event occurs several times in the world (the question names it as one): answer
         for each occurrence's causes. Where the occurrences disagree, the first one decides: the video
         shows one such event, and a fitted replay's extra touches of a pair come after the real one
@@ -435,7 +441,8 @@ class VideoExecutor:
         answers, all_groundings = [], list(groundings)
         for k, (text, choice_program, parse_error) in enumerate(choices):
             options = [self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
-                                           None, all_groundings, membership_only=True, presupposed=presupposed)
+                                           None, all_groundings, membership_only=True, presupposed=presupposed,
+                                           grounded=(choice_groundings or {}).get(k))
                        for _, reference in per_target]
             verdicts = {o.verdict for o in options}
             if len(verdicts) == 1:
@@ -512,19 +519,22 @@ class VideoExecutor:
                        reference: tuple[EventRecord, ...] | None, removed: int | None, all_groundings: list[Grounding],
                        membership_only: bool = False, question_bound: list[int] | None = None,
                        contacts: dict[int, Mapping[str, Any]] | None = None,
-                       presupposed: Mapping[AttributeQuery, int] | None = None) -> ChoiceAnswer:
+                       presupposed: Mapping[AttributeQuery, int] | None = None,
+                       grounded: Sequence[Grounding] | None = None) -> ChoiceAnswer:
         """One verdict. ``membership_only``: the question program cannot run (its removed object is
         absent), so the option is tested against ``reference`` directly, as ``belong_to`` does.
         ``question_bound``: the grounded object ids of the question program's references.
         ``contacts``: filled with option k's check_contact result when corroborated.
         ``presupposed``: references the question's presupposition grounded (_presupposed_grounding), kept here.
+        ``grounded``: the option's groundings from the question's joint grounding (grounding.ground_question);
+        None: grounded on its own.
         The stages: parse -> ground (:func:`_ungrounded_option`) -> run (:meth:`_run_option`, or
         :func:`_option_from_selection` when the program does not apply) -> facts per value kind
         (:data:`OPTION_FACTS`) -> corroboration."""
         if choice_program is None:
             return ChoiceAnswer(k, text, None, None, error=parse_error or "choice not parsed")
         choice_program = tuple(choice_program)
-        groundings = ground_program(choice_program, self.objects)
+        groundings = list(grounded) if grounded is not None else ground_program(choice_program, self.objects)
         if presupposed:
             groundings = [replace(g, object_ids=(presupposed[g.query],)) if g.status == "inferred" and g.query in presupposed else g
                           for g in groundings]

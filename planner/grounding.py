@@ -16,7 +16,11 @@ the ``objects <v> filter_* ... unique`` part of a program) is grounded:
   distinct objects (Hungarian on -log likelihood); between near-equal
   likelihoods the object seen in more frames wins (a duplicate track is
   short). ``probabilities`` gives each object's share of the likelihood
-  (the posterior under a uniform prior), stated in the message;
+  (the posterior under a uniform prior), stated in the message. The
+  references of a whole question (its program and its choices' programs,
+  :func:`ground_question`) are assigned together: one phrase names one
+  object throughout the question, and two phrases whose attributes
+  contradict ("the gray cube", "the gray cylinder") name two objects;
 * ``undecided``: only when the world has no objects.
 
 ``absent`` marks a reference that no object matches in a world without any
@@ -27,7 +31,7 @@ was never observed, which callers may treat as an object outside the world.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal, Mapping, Sequence
 
 import numpy as np
@@ -213,6 +217,10 @@ def parse_object_phrase(text: str) -> AttributeQuery:
     return AttributeQuery(**found)
 
 
+# Branch-and-bound nodes a question's joint assignment may visit before it keeps the best found so far.
+MAX_ASSIGNMENT_NODES = 100_000
+
+
 def _assignment_costs(queries: Sequence[AttributeQuery], objects: Sequence[WorldObject]) -> tuple[np.ndarray, np.ndarray]:
     """((Q, N) likelihoods, (Q, N) costs: -log likelihood, less the support bonus and the id tie-break)."""
     likelihood = np.array([[obj.likelihood(q) for obj in objects] for q in queries], dtype=float).reshape(len(queries), len(objects))
@@ -235,7 +243,6 @@ def ground_references(queries: Sequence[AttributeQuery], objects: Sequence[World
     likelihood, costs = _assignment_costs(distinct, objects)
     ids = [obj.object_id for obj in objects]
     matches = [[obj.object_id for obj in objects if obj.matches(q) is True] for q in distinct]
-    uncertain = [[obj.object_id for obj in objects if obj.matches(q) is None] for q in distinct]
     chosen: dict[int, int] = {r: ids.index(m[0]) for r, m in enumerate(matches) if len(m) == 1}
     free = [r for r in range(len(distinct)) if r not in chosen]
     if free:
@@ -246,17 +253,131 @@ def ground_references(queries: Sequence[AttributeQuery], objects: Sequence[World
         chosen.update({free[r]: columns[c] for r, c in zip(rows, cols)})
         for r in free:  # references beyond the number of objects: each its own best
             chosen.setdefault(r, int(np.argmin(costs[r])))
+    groundings = _groundings(distinct, objects, likelihood, chosen)
+    return [replace(groundings[q], reference=name) for name, q in zip(names, queries)]
+
+
+def _groundings(distinct: Sequence[AttributeQuery], objects: Sequence[WorldObject], likelihood: np.ndarray,
+                chosen: Mapping[int, int]) -> dict[AttributeQuery, Grounding]:
+    """The Grounding of each distinct query given its chosen column (likelihood: (Q, N))."""
+    ids = [obj.object_id for obj in objects]
     any_belief = any(obj.belief is not None for obj in objects)
     groundings = {}
     for r, query in enumerate(distinct):
+        matches = sorted(obj.object_id for obj in objects if obj.matches(query) is True)
+        uncertain = sorted(obj.object_id for obj in objects if obj.matches(query) is None)
         total = float(likelihood[r].sum())
         shares = likelihood[r] / total if total > 0 else np.full(len(objects), 1.0 / len(objects))
         order = sorted(range(len(objects)), key=lambda c: (-shares[c], ids[c]))
-        status: GroundingStatus = "unique" if len(matches[r]) == 1 and ids[chosen[r]] == matches[r][0] else "inferred"
-        groundings[query] = (status, (ids[chosen[r]],), tuple(sorted(uncertain[r])), tuple(sorted(matches[r])),
-                             tuple((ids[c], float(shares[c])) for c in order), not matches[r] and not uncertain[r] and not any_belief,
-                             any_belief)
-    return [Grounding(name, q, *groundings[q]) for name, q in zip(names, queries)]
+        status: GroundingStatus = "unique" if len(matches) == 1 and ids[chosen[r]] == matches[0] else "inferred"
+        groundings[query] = Grounding(query.phrase(), query, status, (ids[chosen[r]],), tuple(uncertain), tuple(matches),
+                                      tuple((ids[c], float(shares[c])) for c in order),
+                                      not matches and not uncertain and not any_belief, any_belief)
+    return groundings
+
+
+def contradict(a: AttributeQuery, b: AttributeQuery) -> bool:
+    """The two phrases name different values of one attribute ("the gray cube", "the gray cylinder"):
+    no object answers both, so under the question's presupposition that each names one object they
+    name two."""
+    named = dict(a.items())
+    return any(kind in named and named[kind] != value for kind, value in b.items())
+
+
+def ground_question(programs: Sequence[Sequence[str]], objects: Sequence[WorldObject]) -> list[list[Grounding]]:
+    """Ground the references of one question's programs (its own, then each choice's) together.
+
+    Each phrase "the ..." names exactly one object of the scene (the programs' ``unique``), so within
+    the question: one phrase names one object; a phrase whose attributes include all of another's
+    ("the brown cube", "the brown object") names the same object as it; phrases that
+    :func:`contradict` name distinct objects; within a program distinct phrases name distinct
+    objects (as :func:`ground_references`); other phrases of different programs ("the sphere",
+    "the cyan object") may or may not name one. An exact unique match keeps its object; the rest
+    minimise the summed cost of :func:`_assignment_costs` (branch and bound, exact up to
+    MAX_ASSIGNMENT_NODES). Where no assignment meets the constraints (more phrases than objects),
+    each program is grounded on its own. Returns one list of groundings per program, in reference order.
+    """
+    references = [program_references(p) for p in programs]
+    if not objects or len(programs) < 2:
+        return [ground_references(r, objects) for r in references]
+    distinct = list(dict.fromkeys(q for refs in references for q in refs))
+    index = {q: r for r, q in enumerate(distinct)}
+    one_program = {(a, b) for refs in references for a in {index[q] for q in refs} for b in {index[q] for q in refs} if a != b}
+    groups = _same_object_groups(distinct, one_program)
+    group_of = {r: g for g, rows in enumerate(groups) for r in rows}
+    named = [AttributeQuery(**{kind: value for r in rows for kind, value in distinct[r].items()}) for rows in groups]
+    differ = {(group_of[a], group_of[b]) for a in range(len(distinct)) for b in range(len(distinct))
+              if (a, b) in one_program or contradict(distinct[a], distinct[b])}
+    _, costs = _assignment_costs(named, objects)
+    fixed: dict[int, int] = {}
+    for g, query in enumerate(named):
+        matches = [c for c, obj in enumerate(objects) if obj.matches(query) is True]
+        if len(matches) == 1:
+            fixed[g] = matches[0]
+    assigned = _constrained_assignment(costs, fixed, differ)
+    if assigned is None:
+        return [ground_references(r, objects) for r in references]
+    likelihood, _ = _assignment_costs(distinct, objects)
+    groundings = _groundings(distinct, objects, likelihood, {r: assigned[group_of[r]] for r in range(len(distinct))})
+    return [[groundings[q] for q in refs] for refs in references]
+
+
+def _same_object_groups(queries: Sequence[AttributeQuery], one_program: set[tuple[int, int]]) -> list[list[int]]:
+    """Rows that name one object: a query whose attributes include all of another's, joined (union-find),
+    unless the two are phrases of one program. A group whose members contradict each other or share a
+    program (no object answers it) falls back to single rows."""
+    parent = list(range(len(queries)))
+
+    def root(r: int) -> int:
+        while parent[r] != r:
+            r = parent[r]
+        return r
+
+    for a, general in enumerate(queries):
+        for b, specific in enumerate(queries):
+            if a != b and (a, b) not in one_program and set(general.items()) < set(specific.items()):
+                parent[root(a)] = root(b)
+    groups: dict[int, list[int]] = {}
+    for r in range(len(queries)):
+        groups.setdefault(root(r), []).append(r)
+    result = []
+    for rows in groups.values():
+        consistent = not any((a, b) in one_program or contradict(queries[a], queries[b]) for a in rows for b in rows if a != b)
+        result.extend([rows] if consistent else [[r] for r in rows])
+    return result
+
+
+def _constrained_assignment(costs: np.ndarray, fixed: Mapping[int, int], differ: set[tuple[int, int]]) -> dict[int, int] | None:
+    """Rows -> columns minimising the summed (Q, N) ``costs``, rows in ``fixed`` kept, each (a, b) in
+    ``differ`` on distinct columns; None when no assignment meets them (or fixed rows break them)."""
+    if any((a, b) in differ and fixed[a] == fixed[b] for a in fixed for b in fixed if a != b):
+        return None
+    free = sorted((r for r in range(costs.shape[0]) if r not in fixed), key=lambda r: float(costs[r].min()))
+    candidates = {r: [int(c) for c in np.argsort(costs[r], kind="stable")] for r in free}
+    floor = np.concatenate([np.cumsum([float(costs[r].min()) for r in free][::-1])[::-1], [0.0]])
+    best: dict[str, Any] = {"cost": math.inf, "chosen": None}
+    nodes = 0
+    chosen = dict(fixed)
+
+    def visit(k: int, total: float) -> None:
+        nonlocal nodes
+        nodes += 1
+        if k == len(free):
+            best["cost"], best["chosen"] = total, dict(chosen)
+            return
+        row = free[k]
+        for column in candidates[row]:
+            cost = total + float(costs[row, column])
+            if cost + floor[k + 1] >= best["cost"] or nodes > MAX_ASSIGNMENT_NODES:
+                break  # candidates are in cost order: none after this one can do better
+            if any(chosen.get(other) == column for other in range(costs.shape[0]) if (row, other) in differ):
+                continue
+            chosen[row] = column
+            visit(k + 1, cost)
+            del chosen[row]
+
+    visit(0, 0.0)
+    return best["chosen"]
 
 
 def ground(query: AttributeQuery, objects: Sequence[WorldObject], reference: str | None = None) -> Grounding:

@@ -74,7 +74,9 @@ SYSTEM_PROMPT = """You answer multiple-choice questions about a physical scene r
 The scene has been turned into an executable world that you query through tools: inspect states and events,
 continue the motion beyond the video, remove an object and replay, compare rollouts.
 Rules:
-- Ground every object description ("the red cube") to an object id with the world summary.
+- Ground every object description ("the red cube") to an object id with the world summary. Each description names
+  exactly one object: the same one in the question and every choice; "the brown object" and "the brown cube" are one
+  object; descriptions that differ in a colour, material or shape ("the gray cube", "the gray cylinder") are two.
 - Observed events are those before the video's last frame (observed_frames); later events are predictions.
 - For "what happens if X is removed", replay without X (simulate_edit with edit_type remove_object) and look at the
   collisions before the end of the video in that rollout.

@@ -1,8 +1,9 @@
 """``physmind synth``: generate a CLEVRER-style dataset; ``physmind synth contact-sheet``: look at it.
 
     physmind synth --out DIR --scenes N --seed S [--start-index K] [--workers W] [--looks default|tune|heldout]
-                   [--renderer mujoco|povray|blender]
+                   [--renderer mujoco|povray|blender] [--phrasing shortest|clevrer]
     physmind synth contact-sheet DIR [--scenes 0,1,2] [--frames 0,40,80,127] [--png PATH]
+    physmind synth questions DIR --phrasing shortest|clevrer   (rewrite DIR/questions.json from its ground truth)
 
 Heavy imports (MuJoCo, PyAV) happen inside the handlers.
 """
@@ -45,8 +46,15 @@ def register(subparsers) -> None:
         "needs the Debian package povray; masks stay MuJoCo's; see synth/povray.py) or blender (Blender's Cycles "
         "path tracer in its own look family, needs the bpy module: `make render`; see synth/blender.py)",
     )
+    parser.add_argument("--phrasing", default="shortest",
+                        help="how questions name objects: shortest (default: the shortest unique attributes) or clevrer "
+                        "(unique attributes drawn at each mention with CLEVRER's frequencies; see synth/questions.py)")
     parser.set_defaults(handler=run_generate)
-    inner = parser.add_subparsers(dest="synth_command", metavar="{contact-sheet}")
+    inner = parser.add_subparsers(dest="synth_command", metavar="{contact-sheet,questions}")
+    rephrase = inner.add_parser("questions", help="write a dataset's questions.json again from its ground truth, in a phrasing")
+    rephrase.add_argument("data", type=Path, help="a directory written by `physmind synth`")
+    rephrase.add_argument("--phrasing", default="shortest", help="shortest (default) or clevrer (as for `physmind synth`)")
+    rephrase.set_defaults(handler=run_questions)
     sheet = inner.add_parser("contact-sheet", help="tile frames of generated videos into one PNG")
     sheet.add_argument("data", type=Path, help="a directory written by `physmind synth`")
     sheet.add_argument("--scenes", default=None, help="comma-separated scene indices (default: the first 4 videos)")
@@ -65,12 +73,42 @@ def _int_list(text: str, name: str) -> list[int]:
     return values
 
 
-def _one_scene(job: tuple[str, int, int, str, str, int]):
+def _one_scene(job: tuple[str, int, int, str, str, int, str]):
     # Lazy: MuJoCo loads in the worker process, after synth/__init__ has set MUJOCO_GL.
     from synth.generate import generate_scene
 
-    out, seed, index, looks, renderer, render_processes = job
-    return generate_scene(Path(out), seed, index, looks, renderer, render_processes)
+    out, seed, index, looks, renderer, render_processes, phrasing = job
+    return generate_scene(Path(out), seed, index, looks, renderer, render_processes, phrasing)
+
+
+def _check_phrasing(phrasing: str) -> None:
+    from synth.questions import PHRASINGS
+
+    if phrasing not in PHRASINGS:
+        raise ValueError(f"--phrasing: expected one of {', '.join(PHRASINGS)}, got {phrasing!r}")
+
+
+def run_questions(args: argparse.Namespace) -> int:
+    """Rewrite DATA/questions.json from DATA/ground_truth (each scene's seed and index), in ``--phrasing``."""
+    import json
+
+    from synth.generate import questions_entry, write_questions
+
+    _check_phrasing(args.phrasing)
+    paths = sorted((args.data / "ground_truth").glob("scene_*.json"))
+    if not paths:
+        raise FileNotFoundError(f"{args.data / 'ground_truth'}: no scene_*.json files (not a `physmind synth` directory)")
+    entries = []
+    for path in paths:  # every file checked before the progress bar starts: a bad one fails in one line
+        try:
+            truth = json.loads(path.read_text())
+            entries.append(questions_entry(truth, int(truth["generator"]["seed"]), int(truth["scene_index"]), args.phrasing))
+        except (ValueError, KeyError, TypeError, AttributeError) as error:
+            raise ValueError(f"{path}: not a ground-truth file of `physmind synth` ({type(error).__name__}: {error})") from None
+    target = write_questions(args.data, entries)
+    count = sum(len(e["questions"]) for e in entries)
+    print(f"wrote {count} questions of {len(entries)} scenes ({args.phrasing} phrasing) to {target}")
+    return 0
 
 
 def run_generate(args: argparse.Namespace) -> int:
@@ -96,6 +134,8 @@ def run_generate(args: argparse.Namespace) -> int:
     # Lazy: loaded only when this command runs, so `physmind --help` and the other commands start fast.
     from synth.looks import LOOK_FAMILIES
 
+    phrasing = getattr(args, "phrasing", "shortest")
+    _check_phrasing(phrasing)
     if args.looks not in LOOK_FAMILIES:
         raise ValueError(f"--looks: expected one of {', '.join(LOOK_FAMILIES)}, got {args.looks!r}")
     import synth  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
@@ -114,7 +154,7 @@ def run_generate(args: argparse.Namespace) -> int:
     scene_workers = min(args.workers, args.scenes)
     render_processes = max(1, args.workers // scene_workers) if renderer in ("povray", "blender") else 1
     args.out.mkdir(parents=True, exist_ok=True)
-    jobs = [(str(args.out), args.seed, index, args.looks, renderer, render_processes)
+    jobs = [(str(args.out), args.seed, index, args.looks, renderer, render_processes, phrasing)
             for index in range(args.start_index, args.start_index + args.scenes)]
     results = run_jobs(_one_scene, jobs, scene_workers, "synth", "scene")
     results.sort(key=lambda r: r[1].scene_index)

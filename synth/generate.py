@@ -107,7 +107,7 @@ def _dump(path: Path, document: dict, indent: int | None = None) -> None:
 
 
 def generate_scene(out: Path, seed: int, index: int, looks: str = "default", renderer: str = "mujoco",
-                   render_processes: int = 1) -> tuple[dict, SceneStats]:
+                   render_processes: int = 1, phrasing: str = "shortest") -> tuple[dict, SceneStats]:
     """Write the video, annotation, ground truth and masks of scene ``index``
     with a look of family ``looks`` (synth.looks.LOOK_FAMILIES), rendered by
     ``renderer`` (RENDERERS).
@@ -118,6 +118,7 @@ def generate_scene(out: Path, seed: int, index: int, looks: str = "default", ren
     the same geometry, and the ground truth records the look under ``renderer``.
     With "blender" the same holds with Cycles (synth.blender, look of
     synth.blender_look; ``render_processes`` is its thread count).
+    ``phrasing`` names the objects of the questions (synth.questions.PHRASINGS).
     Returns the scene's questions.json entry and its statistics.
     """
     if renderer not in RENDERERS:
@@ -141,7 +142,7 @@ def generate_scene(out: Path, seed: int, index: int, looks: str = "default", ren
     _dump(out / "ground_truth" / f"scene_{index:05d}.json", ground_truth)
     _dump(out / "masks" / f"proposal_{index:05d}.json", proposals_document(spec, instance))
 
-    entry = questions_entry(ground_truth, seed, index)
+    entry = questions_entry(ground_truth, seed, index, phrasing)
     questions = entry["questions"]
 
     by_type: dict[str, int] = {}
@@ -165,10 +166,12 @@ def generate_scene(out: Path, seed: int, index: int, looks: str = "default", ren
     return entry, stats
 
 
-def questions_entry(ground_truth: dict, seed: int, index: int) -> dict:
-    """Scene ``index``'s questions.json entry, from its ground truth (stream [seed, index, 1])."""
+def questions_entry(ground_truth: dict, seed: int, index: int, phrasing: str = "shortest") -> dict:
+    """Scene ``index``'s questions.json entry, from its ground truth (stream [seed, index, 1]),
+    objects named by ``phrasing`` (synth.questions.PHRASINGS)."""
     question_rng = np.random.default_rng(np.random.SeedSequence([seed, index, 1]))
-    questions = scene_questions(program_scene_from_ground_truth(ground_truth), question_rng, seen_object_ids(ground_truth))
+    questions = scene_questions(program_scene_from_ground_truth(ground_truth), question_rng, seen_object_ids(ground_truth),
+                                phrasing)
     return {"scene_index": index, "video_filename": video_filename(index), "questions": questions}
 
 

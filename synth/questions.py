@@ -1,10 +1,15 @@
 """CLEVRER-style multiple-choice questions with programs, answered by running them.
 
 Phrasing and program style follow CLEVRER's released questions (see the 564
-real explanatory questions in ../shared/clevrer): objects are named by the
-shortest attribute combination that is unique in the video ("the sphere",
-"the metal cube", "the yellow rubber cylinder"), programs filter colour, then
-material, then shape. Every answer is computed by executing
+real explanatory questions in ../shared/clevrer): objects are named by an
+attribute combination that is unique in the video, programs filter colour,
+then material, then shape. Two phrasings (``PHRASINGS``): "shortest" names
+an object by its shortest such combination ("the sphere", "the metal cube",
+"the yellow rubber cylinder"); "clevrer" draws, at every mention, one of its
+unique combinations with CLEVRER's frequencies of combination kinds
+(``CLEVRER_REFERENCE_WEIGHTS``), so one question may name an object twice in
+two ways ("the brown cube's colliding with ...", "... the brown object"), as
+CLEVRER's questions do. Every answer is computed by executing
 ``choice.program + question.program`` with planner.program on the scene's
 MuJoCo events, never set by hand.
 
@@ -41,6 +46,13 @@ MAX_PREDICTIVE = 2
 MAX_COUNTERFACTUAL = 3
 
 ATTRIBUTE_ORDER = ("color", "material", "shape")
+PHRASINGS = ("shortest", "clevrer")
+# How often CLEVRER names an object by each attribute combination: the filters of the 4,063 object
+# references in the programs of the 564 real questions in ../shared/clevrer (docs/formats.md).
+CLEVRER_REFERENCE_WEIGHTS: dict[tuple[str, ...], int] = {
+    ("color", "shape"): 1349, ("color",): 776, ("shape",): 737, ("material", "shape"): 556,
+    ("color", "material", "shape"): 331, ("color", "material"): 263, ("material",): 51,
+}
 
 
 @dataclass(frozen=True)
@@ -51,6 +63,23 @@ class Reference:
     program: tuple[str, ...]
 
 
+def _reference(obj: ObjectRecord, subset: tuple[str, ...]) -> Reference:
+    """The phrase and program naming ``obj`` by the attributes of ``subset`` (in ATTRIBUTE_ORDER)."""
+    words = [getattr(obj, a) for a in subset if a != "shape"]
+    words.append(obj.shape if "shape" in subset else "object")
+    program = ["objects"]
+    for a in subset:
+        program += [getattr(obj, a), f"filter_{a}"]
+    program.append("unique")
+    return Reference(" ".join(words), tuple(program))
+
+
+def _unique_subsets(obj: ObjectRecord, objects: tuple[ObjectRecord, ...]) -> list[tuple[str, ...]]:
+    """Every non-empty attribute subset that singles ``obj`` out among ``objects``, shortest first."""
+    return [subset for size in (1, 2, 3) for subset in itertools.combinations(ATTRIBUTE_ORDER, size)
+            if sum(all(getattr(o, a) == getattr(obj, a) for a in subset) for o in objects) == 1]
+
+
 def object_references(objects: tuple[ObjectRecord, ...]) -> dict[int, list[Reference]]:
     """All shortest unique attribute references of each object.
 
@@ -59,32 +88,37 @@ def object_references(objects: tuple[ObjectRecord, ...]) -> dict[int, list[Refer
     """
     references: dict[int, list[Reference]] = {}
     for obj in objects:
-        for size in (1, 2, 3):
-            found = []
-            for subset in itertools.combinations(ATTRIBUTE_ORDER, size):
-                matches = [o for o in objects if all(getattr(o, a) == getattr(obj, a) for a in subset)]
-                if len(matches) == 1:
-                    words = [getattr(obj, a) for a in subset if a != "shape"]
-                    words.append(obj.shape if "shape" in subset else "object")
-                    program = ["objects"]
-                    for a in subset:
-                        program += [getattr(obj, a), f"filter_{a}"]
-                    program.append("unique")
-                    found.append(Reference(" ".join(words), tuple(program)))
-            if found:
-                references[obj.id] = found
-                break
+        subsets = _unique_subsets(obj, objects)
+        if subsets:
+            references[obj.id] = [_reference(obj, s) for s in subsets if len(s) == len(subsets[0])]
     return references
 
 
+def clevrer_references(objects: tuple[ObjectRecord, ...]) -> dict[int, list[tuple[Reference, float]]]:
+    """Each object's unique attribute references with CLEVRER's weight of their kind (CLEVRER_REFERENCE_WEIGHTS)."""
+    return {obj.id: [(_reference(obj, s), float(CLEVRER_REFERENCE_WEIGHTS[s])) for s in subsets]
+            for obj in objects if (subsets := _unique_subsets(obj, objects))}
+
+
 class _Namer:
-    def __init__(self, scene: ProgramScene, rng: np.random.Generator):
-        self.references = object_references(scene.objects)
+    """Names objects at each mention, by the phrasing (PHRASINGS)."""
+
+    def __init__(self, scene: ProgramScene, rng: np.random.Generator, phrasing: str = "shortest"):
+        if phrasing not in PHRASINGS:
+            raise ValueError(f"phrasing: expected one of {', '.join(PHRASINGS)}, got {phrasing!r}")
+        if phrasing == "shortest":
+            self.references = {k: [(r, 1.0) for r in refs] for k, refs in object_references(scene.objects).items()}
+        else:
+            self.references = clevrer_references(scene.objects)
+        self.phrasing = phrasing
         self.rng = rng
 
     def __call__(self, object_id: int) -> Reference:
         options = self.references[object_id]
-        return options[int(self.rng.integers(len(options)))]
+        if self.phrasing == "shortest":
+            return options[int(self.rng.integers(len(options)))][0]  # synth-1's draw: datasets of a seed stay the same
+        weights = np.array([w for _, w in options])
+        return options[int(self.rng.choice(len(options), p=weights / weights.sum()))][0]
 
 
 def _collision_program(a: Reference, b: Reference, source: str = "events") -> list[str]:
@@ -132,8 +166,9 @@ def _seen_ids(scene: ProgramScene, seen: frozenset[int] | None) -> frozenset[int
     return frozenset(o.id for o in scene.objects) if seen is None else frozenset(seen)
 
 
-def explanatory_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None) -> list[dict]:
-    name = _Namer(scene, rng)
+def explanatory_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None,
+                          phrasing: str = "shortest") -> list[dict]:
+    name = _Namer(scene, rng, phrasing)
     visible = _seen_ids(scene, seen)
     observed = [e for e in scene.events if e.frame is not None and e.frame < scene.observed_frames and set(e.objects) <= visible]
     collisions = [e for e in observed if e.kind == "collision"]
@@ -232,8 +267,9 @@ def _pair_choice(name: _Namer, rng: np.random.Generator, pair: tuple[int, int]) 
     return {"choice": f"The {a.phrase} collides with the {b.phrase}", "program": _collision_program(a, b, "all_events")}
 
 
-def predictive_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None) -> list[dict]:
-    name = _Namer(scene, rng)
+def predictive_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None,
+                         phrasing: str = "shortest") -> list[dict]:
+    name = _Namer(scene, rng, phrasing)
     program = ["unseen_events", "belong_to"]
     ids = sorted(_seen_ids(scene, seen))
     all_pairs = list(itertools.combinations(ids, 2))
@@ -257,10 +293,11 @@ def predictive_questions(scene: ProgramScene, rng: np.random.Generator, seen: fr
     return questions
 
 
-def counterfactual_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None) -> list[dict]:
+def counterfactual_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None,
+                             phrasing: str = "shortest") -> list[dict]:
     if scene.counterfactual is None:
         return []
-    name = _Namer(scene, rng)
+    name = _Namer(scene, rng, phrasing)
     ids = sorted(_seen_ids(scene, seen))
     observed_collisions = [e for e in scene.events if e.kind == "collision" and e.frame is not None and e.frame < scene.observed_frames]
     involved = sorted({i for e in observed_collisions for i in e.objects} & set(ids))
@@ -290,13 +327,16 @@ def counterfactual_questions(scene: ProgramScene, rng: np.random.Generator, seen
     return questions
 
 
-def scene_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None) -> list[dict]:
+def scene_questions(scene: ProgramScene, rng: np.random.Generator, seen: frozenset[int] | None = None,
+                    phrasing: str = "shortest") -> list[dict]:
     """All questions of one scene, numbered in CLEVRER's order of types.
 
     ``seen``: ids of the objects seen in the video (synth.annotate.seen_object_ids);
     only they are named. None: every object (hand-made scenes of tests).
+    ``phrasing``: how objects are named (PHRASINGS, module docstring).
     """
-    questions = explanatory_questions(scene, rng, seen) + predictive_questions(scene, rng, seen) + counterfactual_questions(scene, rng, seen)
+    questions = (explanatory_questions(scene, rng, seen, phrasing) + predictive_questions(scene, rng, seen, phrasing)
+                 + counterfactual_questions(scene, rng, seen, phrasing))
     out = []
     for k, q in enumerate(questions):
         out.append({"question_id": k, "question_type": q["question_type"], "question": q["question"], "program": q["program"], "choices": q["choices"]})

@@ -91,6 +91,17 @@ def test_synth_out_naming_a_file(tmp_path, capsys):
 
 
 # -- every command that reads a file, against every kind of bad file -----------------------
+def test_synth_questions_bad_inputs(tmp_path, capsys):
+    err = run_cli(["synth", "questions", str(tmp_path)], capsys)
+    assert "no scene_*.json" in err
+    (tmp_path / "ground_truth").mkdir()
+    (tmp_path / "ground_truth" / "scene_00000.json").write_text('{"scene_index": 0}')
+    err = run_cli(["synth", "questions", str(tmp_path)], capsys)
+    assert "not a ground-truth file" in err and "scene_00000.json" in err
+    err = run_cli(["synth", "questions", str(tmp_path), "--phrasing", "poetic"], capsys)
+    assert "--phrasing: expected one of shortest, clevrer" in err
+
+
 FIXTURES = Path(__file__).resolve().parent / "data" / "synth"
 GOOD_ANNOTATION = str(FIXTURES / "annotations" / "annotation_00001.json")
 GOOD_CAMERA = str(FIXTURES / "ground_truth" / "scene_00001.json")

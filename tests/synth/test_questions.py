@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from planner.program import EventRecord, ObjectRecord, ProgramScene, execute
-from synth.questions import _choose_balanced, object_references, scene_questions
+from synth.questions import CLEVRER_REFERENCE_WEIGHTS, _choose_balanced, object_references, scene_questions
 
 O = ObjectRecord
 
@@ -91,6 +91,66 @@ def test_objects_never_seen_in_the_video_are_never_named():
     assert 4 in unfiltered  # without the rule the late object is asked about
     assert 4 not in filtered and filtered == {0, 1, 2, 3}
     assert kinds == {"explanatory", "predictive", "counterfactual"}
+
+
+def _references(question: dict) -> list[tuple[str, ...]]:
+    """Every ``objects ... unique`` run of a question and its options."""
+    found = []
+    for program in [question["program"]] + [c["program"] for c in question["choices"]]:
+        start = None
+        for k, token in enumerate(program):
+            if token == "objects":
+                start = k
+            elif token == "unique" and start is not None:
+                found.append(tuple(program[start : k + 1]))
+                start = None
+    return found
+
+
+def test_clevrer_phrasing_names_objects_in_several_unique_ways():
+    """CLEVRER's phrasing: every reference still names exactly one object, the answers still come from the
+    interpreter, and objects are also named by more than their shortest attributes (as CLEVRER's questions
+    do), in kinds drawn with CLEVRER's weights (colour + shape the commonest); the shortest phrasing never does."""
+    objects = (O(0, "red", "metal", "sphere"), O(1, "blue", "rubber", "cube"), O(2, "green", "rubber", "cylinder"), O(3, "yellow", "metal", "cube"))
+    C = lambda a, b, f: EventRecord("collision", (a, b), f)  # noqa: E731
+    events = (EventRecord("in", (2,), 10), C(0, 1, 20), C(1, 2, 40), C(0, 3, 70), C(2, 3, 140))
+    counterfactual = {0: (C(1, 2, 50),), 1: (C(0, 3, 70), C(0, 2, 90)), 2: (C(0, 1, 20), C(0, 3, 70)), 3: (C(0, 1, 20), C(1, 2, 40))}
+    scene = ProgramScene(objects=objects, events=events, observed_frames=128, counterfactual=lambda i: counterfactual[i])
+    shortest = {r.program for refs in object_references(objects).values() for r in refs}
+    kinds: dict[tuple[str, ...], int] = {}
+    two_ways = 0
+    for seed in range(30):
+        for question in scene_questions(scene, np.random.default_rng(seed), phrasing="clevrer"):
+            for choice in question["choices"]:
+                assert choice["answer"] == ("correct" if execute(choice["program"] + question["program"], scene) == "yes" else "wrong")
+            named: dict[int, set] = {}
+            for reference in _references(question):
+                named.setdefault(execute(list(reference), scene).id, set()).add(reference)
+                kind = tuple(token.removeprefix("filter_") for token in reference if token.startswith("filter_"))
+                kinds[kind] = kinds.get(kind, 0) + 1
+            two_ways += any(len(v) > 1 for v in named.values())
+        for question in scene_questions(scene, np.random.default_rng(seed)):
+            assert set(_references(question)) <= shortest
+    assert max(kinds, key=kinds.get) == ("color", "shape") and ("color", "material", "shape") in kinds
+    assert two_ways > 0  # some question names one object in two ways
+    with pytest.raises(ValueError, match="phrasing"):
+        scene_questions(scene, np.random.default_rng(0), phrasing="poetic")
+
+
+def test_clevrer_weights_are_the_counts_of_the_real_questions():
+    """CLEVRER_REFERENCE_WEIGHTS are the attribute-combination counts of every object reference in the
+    programs of the vendored real CLEVRER questions (tests/data/clevrer)."""
+    import json
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "data" / "clevrer" / "clevrer_explanatory_train_subset.json"
+    counts: dict[tuple[str, ...], int] = {}
+    for video in json.loads(path.read_text()).values():
+        for question in video["questions"]:
+            for reference in _references({"program": question["program"], "choices": question["choices"]}):
+                kind = tuple(token.removeprefix("filter_") for token in reference if token.startswith("filter_"))
+                counts[kind] = counts.get(kind, 0) + 1
+    assert counts == CLEVRER_REFERENCE_WEIGHTS
 
 
 def test_seen_object_ids_counts_observed_frames_in_view():

@@ -99,7 +99,7 @@ def run_questions(args: argparse.Namespace) -> int:
     if not paths:
         raise FileNotFoundError(f"{args.data / 'ground_truth'}: no scene_*.json files (not a `physmind synth` directory)")
     entries = []
-    for path in paths:  # every file checked before the progress bar starts: a bad one fails in one line
+    for path in paths:  # every scene is made before anything is written: a bad file fails in one line, the old file intact
         try:
             truth = json.loads(path.read_text())
             entries.append(questions_entry(truth, int(truth["generator"]["seed"]), int(truth["scene_index"]), args.phrasing))

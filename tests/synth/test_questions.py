@@ -56,18 +56,23 @@ def test_generated_answers_match_the_interpreter_and_types_appear():
             assert choice["answer"] == ("correct" if expected == "yes" else "wrong")
 
 
-def _named_objects(question: dict, scene: ProgramScene) -> set[int]:
-    """Ids of every object a question or its options name (each ``objects ... unique`` run on the scene)."""
-    named = set()
+def _references(question: dict) -> list[tuple[str, ...]]:
+    """Every ``objects ... unique`` run of a question and its options."""
+    found = []
     for program in [question["program"]] + [c["program"] for c in question["choices"]]:
         start = None
         for k, token in enumerate(program):
             if token == "objects":
                 start = k
             elif token == "unique" and start is not None:
-                named.add(execute(program[start : k + 1], scene).id)
+                found.append(tuple(program[start : k + 1]))
                 start = None
-    return named
+    return found
+
+
+def _named_objects(question: dict, scene: ProgramScene) -> set[int]:
+    """Ids of every object a question or its options name (each ``objects ... unique`` run on the scene)."""
+    return {execute(list(reference), scene).id for reference in _references(question)}
 
 
 def test_objects_never_seen_in_the_video_are_never_named():
@@ -91,20 +96,6 @@ def test_objects_never_seen_in_the_video_are_never_named():
     assert 4 in unfiltered  # without the rule the late object is asked about
     assert 4 not in filtered and filtered == {0, 1, 2, 3}
     assert kinds == {"explanatory", "predictive", "counterfactual"}
-
-
-def _references(question: dict) -> list[tuple[str, ...]]:
-    """Every ``objects ... unique`` run of a question and its options."""
-    found = []
-    for program in [question["program"]] + [c["program"] for c in question["choices"]]:
-        start = None
-        for k, token in enumerate(program):
-            if token == "objects":
-                start = k
-            elif token == "unique" and start is not None:
-                found.append(tuple(program[start : k + 1]))
-                start = None
-    return found
 
 
 def test_clevrer_phrasing_names_objects_in_several_unique_ways():

@@ -23,15 +23,12 @@ without them each scene is fitted from its oracle tracks.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from bench.metrics import GroundTruth, rollout_collisions
-from bench.runner import miss_report_main
-from world.identify.fit import identify
-from world.io import world_from_dict, world_to_dict
+from bench.runner import failed_lines, median_cm, miss_report_main, scene_world
 from world.observations import Observations
 from world.rollout import simulate
 from world.types import Edit
@@ -44,14 +41,7 @@ def _scene_rows(task: tuple[Path, Path | None, Path | None]) -> list[dict]:
     annotation, worlds, save_worlds = task
     index = annotation.stem.split("_")[-1]
     truth = GroundTruth.load(annotation.parent.parent / "ground_truth" / f"scene_{index}.json")
-    cached = None if worlds is None else worlds / f"world_{index}.json"
-    if cached is not None and cached.is_file():
-        world = world_from_dict(json.loads(cached.read_text()))
-    else:
-        world, _ = identify(Observations.from_clevrer_annotation(annotation, camera=truth.camera))
-        if save_worlds is not None:
-            save_worlds.mkdir(parents=True, exist_ok=True)
-            (save_worlds / f"world_{index}.json").write_text(json.dumps(world_to_dict(world)))
+    world = scene_world(annotation, Observations.from_clevrer_annotation(annotation, camera=truth.camera), worlds, save_worlds)
     horizon = truth.observed_frames
     base = simulate(world, (), horizon)
     world_columns = {body: k for k, body in enumerate(base.body_ids)}
@@ -95,11 +85,8 @@ def table(rows: list[dict]) -> list[str]:
         group = [r for r in rows if r.get("cause") == name]
         if not group:
             continue
-        errors = np.array([r["factual_error_m"] for r in group], dtype=float) * 100
-        error = f"{np.nanmedian(errors):>22.1f}" if np.isfinite(errors).any() else f"{'n/a':>22}"
-        lines.append(f"  {name:<22} {len(group):>6} | {error}")
-    lines += [f"failed: scene {r['scene']}: {r['error']}" for r in rows if r["kind"] == "error"]
-    return lines
+        lines.append(f"  {name:<22} {len(group):>6} | {median_cm(group, 'factual_error_m', 22)}")
+    return lines + failed_lines(rows)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -30,16 +30,13 @@ the fitted replay), causes 1, 2, 4, 5, 7, 8.
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from bench.bench_identify import STILL_MOVING_SPEED
 from bench.metrics import EVENT_TOLERANCE_FRAMES, GroundTruth, rollout_collisions, unmatched_events
-from bench.runner import miss_report_main
-from world.identify.fit import identify
-from world.io import world_from_dict, world_to_dict
+from bench.runner import failed_lines, median_cm, miss_report_main, scene_world
 from world.observations import Observations
 from world.rollout import simulate
 
@@ -60,14 +57,7 @@ def _scene_rows(task: tuple[Path, Path | None, Path | None]) -> list[dict]:
     index = annotation.stem.split("_")[-1]
     truth = GroundTruth.load(annotation.parent.parent / "ground_truth" / f"scene_{index}.json")
     observations = Observations.from_clevrer_annotation(annotation, camera=truth.camera)
-    cached = None if worlds is None else worlds / f"world_{index}.json"
-    if cached is not None and cached.is_file():
-        world = world_from_dict(json.loads(cached.read_text()))
-    else:
-        world, _ = identify(observations)
-        if save_worlds is not None:
-            save_worlds.mkdir(parents=True, exist_ok=True)
-            (save_worlds / f"world_{index}.json").write_text(json.dumps(world_to_dict(world)))
+    world = scene_world(annotation, observations, worlds, save_worlds)
     horizon = truth.horizon_frames
     base = simulate(world, (), horizon)
     world_columns = {body: k for k, body in enumerate(base.body_ids)}
@@ -133,11 +123,9 @@ def table(rows: list[dict]) -> list[str]:
             group = [r for r in rows if r.get("window") == window and r.get("cause") == name]
             if not group:
                 continue
-            gaps = np.array([r["gap_m"] for r in group], dtype=float) * 100
-            gap = f"{np.nanmedian(gaps):>12.1f}" if np.isfinite(gaps).any() else f"{'n/a':>12}"
-            lines.append(f"  {name:<16} {sum(r['kind'] == 'miss' for r in group):>6} {sum(r['kind'] == 'invented' for r in group):>8} | {gap}")
-    lines += [f"failed: scene {r['scene']}: {r['error']}" for r in rows if r["kind"] == "error"]
-    return lines
+            lines.append(f"  {name:<16} {sum(r['kind'] == 'miss' for r in group):>6} {sum(r['kind'] == 'invented' for r in group):>8} | "
+                         f"{median_cm(group, 'gap_m', 12)}")
+    return lines + failed_lines(rows)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -33,17 +33,14 @@ too) is reported apart from ``in record`` (the fit had it and lost it).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
 
 from bench.metrics import EVENT_TOLERANCE_FRAMES, GroundTruth, match_events, rollout_collisions, unmatched_events
-from bench.runner import miss_report_main
+from bench.runner import failed_lines, miss_report_main, scene_world
 from world.footprint import footprint_gap
-from world.identify.fit import identify
 from world.identify.segments import MIN_DELTA_V, MIN_SEPARATION, WINDOW
-from world.io import world_from_dict, world_to_dict
 from world.observations import Observations
 from world.rollout import simulate
 
@@ -110,14 +107,7 @@ def _scene_rows(task: tuple[Path, Path | None, Path | None]) -> list[dict]:
     index = annotation.stem.split("_")[-1]
     truth = GroundTruth.load(annotation.parent.parent / "ground_truth" / f"scene_{index}.json")
     observations = Observations.from_clevrer_annotation(annotation, camera=truth.camera)
-    cached = None if worlds is None else worlds / f"world_{index}.json"
-    if cached is not None and cached.is_file():
-        world = world_from_dict(json.loads(cached.read_text()))
-    else:
-        world, _ = identify(observations)
-        if save_worlds is not None:
-            save_worlds.mkdir(parents=True, exist_ok=True)
-            (save_worlds / f"world_{index}.json").write_text(json.dumps(world_to_dict(world)))
+    world = scene_world(annotation, observations, worlds, save_worlds)
     last = truth.observed_frames - 1
     truth_events = [e for e in truth.collisions if e[1] <= last]
     record = [((min(a, b), max(a, b)), f) for a, b, f in world.observed_collisions or () if f <= last]
@@ -156,8 +146,7 @@ def table(rows: list[dict]) -> list[str]:
         if record or replay:
             inside = sum(1 for r in replay if r["in_record"])
             lines.append(f"  {name:<15} {record:>6} | {len(replay):>6} {inside:>10} {len(replay) - inside:>5}")
-    lines += [f"failed: scene {r['scene']}: {r['error']}" for r in rows if r["kind"] == "error"]
-    return lines
+    return lines + failed_lines(rows)
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -10,6 +10,8 @@ from functools import partial
 from pathlib import Path
 from typing import Any, Callable, Iterable, Sequence
 
+import numpy as np
+
 from physmind.executors import run_jobs
 
 
@@ -43,6 +45,34 @@ def print_and_save(lines: Iterable[str], rows: Any, json_path: Path | None) -> N
         print(line)
     if json_path:
         json_path.write_text(json.dumps(rows, indent=1))
+
+
+def scene_world(annotation: Path, observations: Any, worlds: Path | None, save_worlds: Path | None) -> Any:
+    """The fitted world of a miss report's scene: ``worlds/world_XXXXX.json`` when present, else identified from
+    ``observations`` (and written to ``save_worlds`` when given); XXXXX is the annotation's index."""
+    from world.identify.fit import identify
+    from world.io import world_from_dict, world_to_dict
+
+    index = annotation.stem.split("_")[-1]
+    cached = None if worlds is None else worlds / f"world_{index}.json"
+    if cached is not None and cached.is_file():
+        return world_from_dict(json.loads(cached.read_text()))
+    world, _ = identify(observations)
+    if save_worlds is not None:
+        save_worlds.mkdir(parents=True, exist_ok=True)
+        (save_worlds / f"world_{index}.json").write_text(json.dumps(world_to_dict(world)))
+    return world
+
+
+def median_cm(rows: list[dict], key: str, width: int) -> str:
+    """The median of ``key`` (metres) over ``rows``, in cm, right-aligned in ``width``; "n/a" when none is finite."""
+    values = np.array([r[key] for r in rows], dtype=float) * 100
+    return f"{np.nanmedian(values):>{width}.1f}" if np.isfinite(values).any() else f"{'n/a':>{width}}"
+
+
+def failed_lines(rows: list[dict]) -> list[str]:
+    """One line per scene whose rows failed (``_rows_or_error``)."""
+    return [f"failed: scene {r['scene']}: {r['error']}" for r in rows if r["kind"] == "error"]
 
 
 def _rows_or_error(scene_rows: Callable[[Any], list[dict]], task: tuple) -> list[dict]:

@@ -49,8 +49,7 @@ from typing import Any, Iterable, Literal, Mapping, Sequence
 from planner.answer import Answer, ChoiceAnswer, readable
 from planner.client import ToolCallError, WorldHandle
 from planner.grammar import ParseError
-from planner.grounding import (AttributeQuery, Grounding, WorldObject, bound_ids, failed, ground_program, ground_question,
-                               objects_from_summary)
+from planner.grounding import Grounding, WorldObject, bound_ids, failed, ground_question, objects_from_summary
 from planner.parser import parse_choice, parse_question
 from planner.program import EventRecord, ObjectRecord, ProgramError, ProgramScene, causal_ancestors, execute
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
@@ -348,7 +347,6 @@ class VideoExecutor:
         shared_calls: list[int] = [self._summary_call] if self._summary_call is not None else []
         facts: list[str] = [f"grounding: {g.message()}" for g in groundings if g.status != "unique" and not absent_removal]
         bound = bound_ids(groundings)
-        presupposed: dict[AttributeQuery, int] = {}
         try:
             self.base_events()
             shared_calls.append(self._base_call)  # type: ignore[arg-type]
@@ -378,8 +376,9 @@ class VideoExecutor:
                     groundings, note = regrounded
                     bound = bound_ids(groundings)
                     facts.append(note)
-                    # an option naming the same object as the question means the object the question was grounded to
-                    presupposed = {g.query: g.object_id for g in groundings}
+                    # the options are grounded again around the question's phrases, now pinned to these objects
+                    pinned = {g.query: g.object_id for g in groundings}
+                    choice_groundings = dict(zip(programs, ground_question([program, *programs.values()], objects, pinned)[1:]))
                 targets = _explained_event_candidates(program, scene, bound)
                 kind = _explained_event_kind(program)
                 if targets is not None and not targets and bound is not None and kind is not None:
@@ -395,12 +394,10 @@ class VideoExecutor:
                     facts.append(note)
                     scene = replace(scene, events=tuple(sorted((*scene.events, stand_in), key=_event_order)), _cache={})
                     return self._answer_each_occurrence(question, question_type, program, choices, scene, (stand_in,),
-                                                        groundings, shared_calls, facts, method, started, presupposed,
-                                                        choice_groundings)
+                                                        groundings, shared_calls, facts, method, started, choice_groundings)
                 if targets is not None and len(targets) > 1:
                     return self._answer_each_occurrence(question, question_type, program, choices, scene, targets,
-                                                        groundings, shared_calls, facts, method, started, presupposed,
-                                                        choice_groundings)
+                                                        groundings, shared_calls, facts, method, started, choice_groundings)
                 reference, reference_fact = self._reference_list(program, scene, bound)
                 if reference_fact:
                     facts.append(reference_fact)
@@ -415,7 +412,7 @@ class VideoExecutor:
         for k, (text, choice_program, parse_error) in enumerate(choices):
             answers.append(self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
                                                removed, all_groundings, membership_only=absent_removal, question_bound=bound,
-                                               contacts=contacts, presupposed=presupposed, grounded=choice_groundings.get(k)))
+                                               contacts=contacts, grounded=choice_groundings.get(k, ())))
         if question_type == "predictive" and _asks_next_event(program):
             answers = _presupposed_next_event(answers, contacts)
         used = sorted({*shared_calls, *(i for a in answers for i in a.tool_calls)})
@@ -424,7 +421,7 @@ class VideoExecutor:
                       facts=tuple(facts), tool_calls=tuple(used), seconds=time.perf_counter() - started)
 
     def _answer_each_occurrence(self, question, question_type, program, choices, scene, targets, groundings, shared_calls,
-                                facts, method, started, presupposed=None, choice_groundings=None) -> Answer:
+                                facts, method, started, choice_groundings) -> Answer:
         """The explained event occurs several times in the world (the question names it as one): answer
         for each occurrence's causes. Where the occurrences disagree, the first one decides: the video
         shows one such event, and a fitted replay's extra touches of a pair come after the real one
@@ -441,8 +438,7 @@ class VideoExecutor:
         answers, all_groundings = [], list(groundings)
         for k, (text, choice_program, parse_error) in enumerate(choices):
             options = [self._answer_choice(k, text, choice_program, parse_error, program, question_type, scene, reference,
-                                           None, all_groundings, membership_only=True, presupposed=presupposed,
-                                           grounded=(choice_groundings or {}).get(k))
+                                           None, all_groundings, membership_only=True, grounded=choice_groundings.get(k, ()))
                        for _, reference in per_target]
             verdicts = {o.verdict for o in options}
             if len(verdicts) == 1:
@@ -519,25 +515,19 @@ class VideoExecutor:
                        reference: tuple[EventRecord, ...] | None, removed: int | None, all_groundings: list[Grounding],
                        membership_only: bool = False, question_bound: list[int] | None = None,
                        contacts: dict[int, Mapping[str, Any]] | None = None,
-                       presupposed: Mapping[AttributeQuery, int] | None = None,
-                       grounded: Sequence[Grounding] | None = None) -> ChoiceAnswer:
+                       grounded: Sequence[Grounding] = ()) -> ChoiceAnswer:
         """One verdict. ``membership_only``: the question program cannot run (its removed object is
         absent), so the option is tested against ``reference`` directly, as ``belong_to`` does.
         ``question_bound``: the grounded object ids of the question program's references.
         ``contacts``: filled with option k's check_contact result when corroborated.
-        ``presupposed``: references the question's presupposition grounded (_presupposed_grounding), kept here.
-        ``grounded``: the option's groundings from the question's joint grounding (grounding.ground_question);
-        None: grounded on its own.
+        ``grounded``: the option's groundings from the question's joint grounding (grounding.ground_question).
         The stages: parse -> ground (:func:`_ungrounded_option`) -> run (:meth:`_run_option`, or
         :func:`_option_from_selection` when the program does not apply) -> facts per value kind
         (:data:`OPTION_FACTS`) -> corroboration."""
         if choice_program is None:
             return ChoiceAnswer(k, text, None, None, error=parse_error or "choice not parsed")
         choice_program = tuple(choice_program)
-        groundings = list(grounded) if grounded is not None else ground_program(choice_program, self.objects)
-        if presupposed:
-            groundings = [replace(g, object_ids=(presupposed[g.query],)) if g.status == "inferred" and g.query in presupposed else g
-                          for g in groundings]
+        groundings = list(grounded)
         all_groundings.extend(groundings)
         negated = bool(program) and program[-1] == "negate"
         bad = failed(groundings)

@@ -284,7 +284,8 @@ def contradict(a: AttributeQuery, b: AttributeQuery) -> bool:
     return any(kind in named and named[kind] != value for kind, value in b.items())
 
 
-def ground_question(programs: Sequence[Sequence[str]], objects: Sequence[WorldObject]) -> list[list[Grounding]]:
+def ground_question(programs: Sequence[Sequence[str]], objects: Sequence[WorldObject],
+                    pinned: Mapping[AttributeQuery, int] | None = None) -> list[list[Grounding]]:
     """Ground the references of one question's programs (its own, then each choice's) together.
 
     Each phrase "the ..." names exactly one object of the scene (the programs' ``unique``), so within
@@ -294,12 +295,20 @@ def ground_question(programs: Sequence[Sequence[str]], objects: Sequence[WorldOb
     objects (as :func:`ground_references`); other phrases of different programs ("the sphere",
     "the cyan object") may or may not name one. An exact unique match keeps its object; the rest
     minimise the summed cost of :func:`_assignment_costs` (branch and bound, exact up to
-    MAX_ASSIGNMENT_NODES). Where no assignment meets the constraints (more phrases than objects),
-    each program is grounded on its own. Returns one list of groundings per program, in reference order.
+    MAX_ASSIGNMENT_NODES). ``pinned``: phrases whose object is already decided (object id; e.g. by the
+    question's presupposition), kept, with the constraints holding around them. Where no assignment meets
+    the constraints (more phrases than objects), each program is grounded on its own, the pinned phrases
+    kept. Returns one list of groundings per program, in reference order.
     """
     references = [program_references(p) for p in programs]
+    pinned = dict(pinned or {})
+
+    def each_on_its_own() -> list[list[Grounding]]:
+        return [[replace(g, object_ids=(pinned[g.query],)) if g.query in pinned and g.object_ids else g
+                 for g in ground_references(r, objects)] for r in references]
+
     if not objects or len(programs) < 2:
-        return [ground_references(r, objects) for r in references]
+        return each_on_its_own()
     distinct = list(dict.fromkeys(q for refs in references for q in refs))
     index = {q: r for r, q in enumerate(distinct)}
     one_program = {(a, b) for refs in references for a in {index[q] for q in refs} for b in {index[q] for q in refs} if a != b}
@@ -308,16 +317,22 @@ def ground_question(programs: Sequence[Sequence[str]], objects: Sequence[WorldOb
     named = [AttributeQuery(**{kind: value for r in rows for kind, value in distinct[r].items()}) for rows in groups]
     differ = {(group_of[a], group_of[b]) for a in range(len(distinct)) for b in range(len(distinct))
               if (a, b) in one_program or contradict(distinct[a], distinct[b])}
-    _, costs = _assignment_costs(named, objects)
+    likelihood, costs = _assignment_costs(named, objects)
     fixed: dict[int, int] = {}
     for g, query in enumerate(named):
         matches = [c for c, obj in enumerate(objects) if obj.matches(query) is True]
         if len(matches) == 1:
             fixed[g] = matches[0]
+    columns = {obj.object_id: c for c, obj in enumerate(objects)}
+    pins = {(group_of[index[q]], columns[i]) for q, i in pinned.items() if q in index and i in columns}
+    if len({g for g, _ in pins}) < len(pins):  # one object's phrases pinned to two objects
+        return each_on_its_own()
+    fixed.update(pins)
     assigned = _constrained_assignment(costs, fixed, differ)
     if assigned is None:
-        return [ground_references(r, objects) for r in references]
-    likelihood, _ = _assignment_costs(distinct, objects)
+        return each_on_its_own()
+    if named != distinct:  # merged phrases: each keeps the shares of its own attributes
+        likelihood, _ = _assignment_costs(distinct, objects)
     groundings = _groundings(distinct, objects, likelihood, {r: assigned[group_of[r]] for r in range(len(distinct))})
     return [[groundings[q] for q in refs] for refs in references]
 

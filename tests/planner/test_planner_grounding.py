@@ -138,6 +138,21 @@ def test_contradicting_phrases_of_one_question_name_two_objects():
     assert cube.status == "inferred" and "'the gray cube' -> object 3 (p=0.44" in cube.message()
 
 
+def test_a_pinned_phrase_keeps_its_object_and_the_others_move_around_it():
+    """The question's presupposition pins 'the gray cylinder' to object 3 (jointly it was object 2, and 'the gray
+    cube' object 3): the option's 'the gray cube' moves to object 2, since no object is both; the fallback keeps
+    the pin too."""
+    objects = _gray_cube_and_cylinder()
+    question = parse_question("Which of the following will not happen if the gray cylinder is removed?").program
+    choice = parse_choice("The gray cube collides with the cyan object", "counterfactual")
+    cylinder = AttributeQuery(color="gray", shape="cylinder")
+    (removed,), (cube, _) = ground_question([question, choice], objects, {cylinder: 3})
+    assert (removed.object_id, cube.object_id) == (3, 2)
+    crowded = [parse_question(f"Which of the following will happen if the {c} object is removed?").program for c in ("red", "blue")]
+    grounded = ground_question([*crowded, question], objects[:2], {cylinder: 3})  # three phrases, two objects: on their own
+    assert grounded[2][0].object_id == 3
+
+
 def test_one_phrase_names_one_object_throughout_a_question():
     """'the cube' alone picks object 1; in a choice that also names the red object (likeliest object 1) the
     choice's own grounding moves it to object 2. Jointly 'the cube' is one object in every choice (the

@@ -394,13 +394,35 @@ def _link_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, n
     ``later``'s first position, and the jump across the gap must be one the tracklets' own speeds can
     make (a resting object does not reappear a metre away). Appearance: colour likelihood from the whole
     tracklets, soft (a colour re-read after a contact still joins) but refused when clearly another colour.
-    Up to LINK_OVERLAP samples of ``later`` before ``earlier`` ends (the strays its tracker track was born on)
-    are left out; more, and the two are seen at once: not one object's pieces in turn.
+    Where the two overlap, up to LINK_OVERLAP samples are left out (_linked_pair): of ``later`` before
+    ``earlier`` ends (the strays its tracker track was born on) or of ``earlier`` after ``later`` starts
+    (the strays its tracker track ended on); more, and the two are seen at once: not one object's pieces in turn.
     """
-    continued = _continuation(earlier, later)
-    if later.frames.size - continued.frames.size > LINK_OVERLAP or continued.frames.size < 2:
-        return np.inf
-    later = continued
+    pair = _linked_pair(earlier, later, appearance)
+    return np.inf if pair is None else pair[0]
+
+
+def _linked_pair(earlier: LiftedTrack, later: LiftedTrack,
+                 appearance: dict[int, np.ndarray]) -> tuple[float, LiftedTrack, LiftedTrack] | None:
+    """(cost, earlier, later) of the cheaper way to leave the overlap of two tracklets out of a link (later's
+    samples up to earlier's end, or earlier's from later's start; at most LINK_OVERLAP samples), or None
+    when neither gives a finite cost."""
+    options = []
+    for trimmed_earlier, trimmed_later in ((earlier, _continuation(earlier, later)), (_truncation(earlier, later), later)):
+        left_out = earlier.frames.size + later.frames.size - trimmed_earlier.frames.size - trimmed_later.frames.size
+        if left_out > LINK_OVERLAP or trimmed_earlier.frames.size < 2 or trimmed_later.frames.size < 2:
+            continue
+        cost = _motion_and_appearance_cost(trimmed_earlier, trimmed_later, appearance)
+        if np.isfinite(cost):
+            options.append((cost, left_out, trimmed_earlier, trimmed_later))
+    if not options:
+        return None
+    cost, _, trimmed_earlier, trimmed_later = min(options, key=lambda option: option[:2])
+    return cost, trimmed_earlier, trimmed_later
+
+
+def _motion_and_appearance_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, np.ndarray]) -> float:
+    """_link_cost of two tracklets that do not overlap in time."""
     gap = int(later.frames[0] - earlier.frames[-1])
     if gap > MAX_LINK_GAP:
         return np.inf
@@ -419,11 +441,20 @@ def _link_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, n
     return distance / gate + colour / MAX_LINK_APPEARANCE + shape
 
 
+def _samples(track: LiftedTrack, kept: slice) -> LiftedTrack:
+    """The tracklet with only the samples in ``kept``."""
+    return replace(track, frames=track.frames[kept], positions=track.positions[kept], yaw=track.yaw[kept],
+                   visible=track.visible[kept], weights=track.weights[kept])
+
+
 def _continuation(earlier: LiftedTrack, later: LiftedTrack) -> LiftedTrack:
     """``later`` without its samples up to ``earlier``'s last frame (the strays a continuation may begin with)."""
-    count = int(np.count_nonzero(later.frames <= earlier.frames[-1]))
-    return replace(later, frames=later.frames[count:], positions=later.positions[count:], yaw=later.yaw[count:],
-                   visible=later.visible[count:], weights=later.weights[count:])
+    return _samples(later, slice(int(np.count_nonzero(later.frames <= earlier.frames[-1])), None))
+
+
+def _truncation(earlier: LiftedTrack, later: LiftedTrack) -> LiftedTrack:
+    """``earlier`` without its samples from ``later``'s first frame on (the strays a tracklet may end with)."""
+    return _samples(earlier, slice(0, int(np.count_nonzero(earlier.frames < later.frames[0]))))
 
 
 def _support(track: LiftedTrack) -> float:
@@ -554,8 +585,9 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
         chain, k = [kept[head]], head
         while k in successor:
             k = successor[k]
-            # the samples a continuation holds before its predecessor ends were left out of the link: strays
-            chain.append(_continuation(chain[-1], kept[k]))
+            # the samples where the two overlap were left out of the link: strays
+            _, chain[-1], continued = _linked_pair(chain[-1], kept[k], appearance)
+            chain.append(continued)
         result.append(_join(chain, appearance, decide) if len(chain) > 1 else chain[0])
     return result
 

@@ -154,3 +154,19 @@ def test_a_tracklet_born_on_two_strays_before_its_predecessor_ends_continues_it(
                     positions=np.concatenate([strays[:1], strays, after.positions]), yaw=np.full(103, np.nan),
                     visible=np.ones(103, bool), weights=np.ones(103))
     assert len(_associate([three, before], SIZE)) == 2
+
+
+def test_a_tracklet_that_ends_on_a_stray_after_its_continuation_starts_is_continued():
+    # Blender dev seed 7707, scene 1: a grey sphere resting at the border is tracked on frames 0-37 and 37-127;
+    # the first tracklet's last sample (frame 37, weight 0.32) is another detection 0.64 m away
+    before = _tracklet(0, range(0, 37), (0.0, 0.0), (0.0, 0.0))
+    after = _tracklet(1, range(37, 128), (0.0, 0.0), (0.0, 0.0))
+    ends_on_stray = replace(before, frames=np.append(before.frames, 37), positions=np.vstack([before.positions, [0.49, 0.42, SIZE]]),
+                            yaw=np.full(38, np.nan), visible=np.ones(38, bool), weights=np.append(before.weights, 0.32))
+    (joined,) = _associate([after, ends_on_stray], SIZE)
+    assert np.array_equal(joined.frames, np.arange(128)) and np.allclose(joined.positions[:, :2], 0.0)  # no stray kept
+    # three samples after the other starts are more than strays: another object's tracklet
+    strays = np.array([[0.49, 0.42, SIZE]] * 3)
+    three = replace(before, frames=np.append(before.frames, [37, 38, 39]), positions=np.vstack([before.positions, strays]),
+                    yaw=np.full(40, np.nan), visible=np.ones(40, bool), weights=np.ones(40))
+    assert len(_associate([after, three], SIZE)) == 2

@@ -29,7 +29,7 @@ from perception.attributes import (
 from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
 from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, body_of, own_shadow, pixel_hue_labels
-from perception.track import HungarianTracker
+from perception.track import HungarianTracker, track_piece
 from perception.types import NEUTRAL, Attributes, Detection, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
 from world.camera import backproject_to_height, centre_in_view
@@ -57,6 +57,8 @@ LINK_OVERLAP = 2  # samples a tracklet may hold before the one it continues ends
 LINK_GATE = 0.45  # m: largest distance between a tracklet's predicted position and the next one's start ...
 LINK_GATE_PER_FRAME = 0.02  # ... plus this per frame of gap (the prediction is held after 5 frames)
 LINK_SPEED_SLACK = 1.5  # the jump across a gap may be this much more than the faster tracklet end's speed allows ...
+JUMP_M = 0.25  # m between consecutive frames: more than any object moves (4 m/s is 0.16 m/frame) ...
+JUMP_CONFIRM = 3  # ... with this many centres on each side holding their own course: another thing (_jump_cuts)
 MAX_SPEED = 0.2  # m/frame (5 m/s at 25 fps): ... but never more than this per frame
 MAX_LINK_APPEARANCE = 0.3  # appearance_distance above which two tracklets are different objects (red vs blue, not red vs brown)
 SHAPE_MISMATCH_COST = 0.5  # added link cost when the tracklets were read as different shapes
@@ -124,48 +126,70 @@ class PrimitiveLifter:
         """(kind, margin over the runner-up, mean J of the kind) on ``frames_used``."""
         return rank_shapes(self.shape_scores(camera, track, segments, frames_used))
 
+    def _lift_track(self, frames: np.ndarray, segments: list[FrameSegments], track: TrackState,
+                   camera: Camera) -> tuple[LiftedTrack, dict[str, list[float]]] | None:
+        """One tracklet lifted to the plane with its attributes, and its per-kind shape overlaps; None when no
+        primitive of the known size explains it (a fragment, not an object)."""
+        isolated = _isolated_frames(track, segments)
+        basis = _spread(isolated, MAX_ATTRIBUTE_FRAMES) or _spread(sorted(track.detections), MAX_ATTRIBUTE_FRAMES)
+        scores = self.shape_scores(camera, track, segments, basis)
+        kind, margin, shape_score = rank_shapes(scores)
+        if shape_score < MIN_SHAPE_SCORE:
+            return None
+        appearance_frames = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
+        attributes = decide_attributes([track.detections[f] for f in appearance_frames], frames, segments, scores)
+        frame_ids, positions, yaws, weights = [], [], [], []
+        previous: Fit | None = None
+        reference: Detection | None = None  # the detection the previous fit was computed on
+        for frame, det in sorted(track.detections.items()):
+            if previous is not None and _same_segment(reference, det):
+                fit = previous  # a resting object: the same pixels give the same pose (most frames of most videos)
+            else:
+                fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous)
+                previous, reference = fit, det
+            weight = float(np.clip(fit.score / 0.7, 0.0, 1.0))
+            if det.touches_border:
+                weight *= WEIGHT_BORDER
+            if det.split or frame in track.merged:
+                weight *= WEIGHT_SPLIT
+            elif sum(1 for d in segments[frame].detections if d.component == det.component) > 1:
+                weight *= WEIGHT_TOUCHING
+            frame_ids.append(frame)
+            positions.append(fit.centre)
+            yaws.append(fit.yaw if kind == "cube" else np.nan)
+            weights.append(weight)
+        frame_ids, positions, yaws, weights = _extend_through_border(
+            camera, kind, self.size, frames.shape[0], track, np.asarray(frame_ids, dtype=np.int64),
+            np.asarray(positions), np.asarray(yaws), np.asarray(weights))
+        visible = centre_in_view(camera, positions)
+        return LiftedTrack(track.id, attributes, frame_ids, positions, yaws, visible, weights), scores
+
     def lift(self, frames: np.ndarray, segments: list[FrameSegments], tracks: list[TrackState],
              camera: Camera, *, progress: bool = False) -> list[LiftedTrack]:
         iterator = tracks
         if progress:
             iterator = tqdm(tracks, desc="lift", unit="object")
         lifted, appearance, states, scores_of = [], {}, {}, {}
+        next_id = max((t.id for t in tracks), default=-1) + 1
         for track in iterator:
-            isolated = _isolated_frames(track, segments)
-            basis = _spread(isolated, MAX_ATTRIBUTE_FRAMES) or _spread(sorted(track.detections), MAX_ATTRIBUTE_FRAMES)
-            scores_of[track.id] = self.shape_scores(camera, track, segments, basis)
-            states[track.id] = track
-            kind, margin, shape_score = rank_shapes(scores_of[track.id])
-            if shape_score < MIN_SHAPE_SCORE:  # no primitive of the known size explains it: a fragment, not an object
-                continue
-            appearance_frames = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
-            attributes = decide_attributes([track.detections[f] for f in appearance_frames], frames, segments, scores_of[track.id])
-            frame_ids, positions, yaws, weights = [], [], [], []
-            previous: Fit | None = None
-            reference: Detection | None = None  # the detection the previous fit was computed on
-            for frame, det in sorted(track.detections.items()):
-                if previous is not None and _same_segment(reference, det):
-                    fit = previous  # a resting object: the same pixels give the same pose (most frames of most videos)
-                else:
-                    fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous)
-                    previous, reference = fit, det
-                weight = float(np.clip(fit.score / 0.7, 0.0, 1.0))
-                if det.touches_border:
-                    weight *= WEIGHT_BORDER
-                if det.split or frame in track.merged:
-                    weight *= WEIGHT_SPLIT
-                elif sum(1 for d in segments[frame].detections if d.component == det.component) > 1:
-                    weight *= WEIGHT_TOUCHING
-                frame_ids.append(frame)
-                positions.append(fit.centre)
-                yaws.append(fit.yaw if kind == "cube" else np.nan)
-                weights.append(weight)
-            frame_ids, positions, yaws, weights = _extend_through_border(
-                camera, kind, self.size, frames.shape[0], track, np.asarray(frame_ids, dtype=np.int64),
-                np.asarray(positions), np.asarray(yaws), np.asarray(weights))
-            visible = centre_in_view(camera, positions)
-            lifted.append(LiftedTrack(track.id, attributes, frame_ids, positions, yaws, visible, weights))
-            appearance[track.id] = track_appearance(track, frames)
+            result = self._lift_track(frames, segments, track, camera)
+            pieces = [(track, result)]
+            cuts = [] if result is None else _jump_cuts(result[0], track)
+            if cuts:  # the tracklet took another thing's segments from each cut on: each piece is lifted on its own
+                bounds = [min(track.detections), *cuts, max(track.detections) + 1]
+                runs = [[f for f in sorted(track.detections) if lo <= f < hi] for lo, hi in zip(bounds, bounds[1:])]
+                pieces = []
+                for run in runs:
+                    piece = track_piece(track, run, next_id)
+                    next_id += 1
+                    pieces.append((piece, self._lift_track(frames, segments, piece, camera)))
+            for state, lifted_piece in pieces:
+                states[state.id] = state
+                if lifted_piece is None:  # no primitive of the known size explains it: a fragment, not an object
+                    continue
+                lifted.append(lifted_piece[0])
+                scores_of[state.id] = lifted_piece[1]
+                appearance[state.id] = track_appearance(state, frames)
         def explained(piece: LiftedTrack, anchor: LiftedTrack) -> bool:
             return _explained_by(camera, self.size, states[piece.id], anchor)
 
@@ -184,6 +208,34 @@ class PrimitiveLifter:
         associated = [t for t in associated if alone.get(t.id) != len(t.frames)]
         associated = _without_shadows(associated, appearance, self.size)
         return _renumber(_untangle_contacts(associated, self.size, appearance))
+
+
+def _jump_cuts(track: LiftedTrack, state: TrackState) -> list[int]:
+    """Frames from which a tracklet follows another thing: between two consecutive frames its fitted centre
+    moved more than JUMP_M (faster than objects move), the JUMP_CONFIRM centres after the jump all stay more
+    than JUMP_M from where the JUMP_CONFIRM before were heading, and those before from where the ones after
+    came from (a one-frame misfit breaks one of the two; a track that followed a reflection on a metal
+    neighbour and then took the reflected object's own segment keeps both). Samples extrapolated through
+    the border are not looked at."""
+    own = np.isin(track.frames, list(state.detections))
+    frames, xy = track.frames[own].astype(float), track.positions[own, :2]
+
+    def far_from_heading(points: slice, base: slice) -> bool:
+        velocity = (xy[base.stop - 1] - xy[base.start]) / (frames[base.stop - 1] - frames[base.start])
+        origin = base.stop - 1 if points.start > base.start else base.start
+        heading = xy[origin] + velocity * (frames[points] - frames[origin])[:, None]
+        return bool(np.all(np.linalg.norm(xy[points] - heading, axis=1) > JUMP_M))
+
+    cuts, k = [], JUMP_CONFIRM - 1
+    while k < len(frames) - JUMP_CONFIRM:
+        before, after = slice(k + 1 - JUMP_CONFIRM, k + 1), slice(k + 1, k + 1 + JUMP_CONFIRM)
+        if (frames[k + 1] - frames[k] == 1 and np.linalg.norm(xy[k + 1] - xy[k]) > JUMP_M
+                and far_from_heading(after, before) and far_from_heading(before, after)):
+            cuts.append(int(frames[k + 1]))
+            k += JUMP_CONFIRM  # the next piece needs its own JUMP_CONFIRM centres before another cut
+        else:
+            k += 1
+    return cuts
 
 
 def _at_border(track: TrackState) -> bool:

@@ -143,14 +143,16 @@ def _split_at_gaps(track: TrackState, max_gap: int) -> list[TrackState]:
     runs.append(frames[start:])
     if len(runs) == 1:
         return [track]
-    pieces = []
-    for run in runs:
-        piece = TrackState(id=track.id, hue_label=track.hue_label, detections={f: track.detections[f] for f in run},
-                           ground={f: track.ground[f] for f in run}, merged={f for f in track.merged if run[0] <= f <= run[-1]},
-                           cut=True)
-        piece.hue_label = _majority_hue(piece)
-        pieces.append(piece)
-    return pieces
+    return [track_piece(track, run) for run in runs]
+
+
+def track_piece(track: TrackState, run: list[int], piece_id: int | None = None) -> TrackState:
+    """The part of a track on the frames ``run`` (sorted), marked as cut; it keeps the track's id unless given one."""
+    piece = TrackState(id=track.id if piece_id is None else piece_id, hue_label=track.hue_label,
+                       detections={f: track.detections[f] for f in run}, ground={f: track.ground[f] for f in run},
+                       merged={f for f in track.merged if run[0] <= f <= run[-1]}, cut=True)
+    piece.hue_label = _majority_hue(piece)
+    return piece
 
 
 def _majority_hue(track: TrackState) -> int:

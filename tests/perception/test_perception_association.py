@@ -6,8 +6,8 @@ import numpy as np
 
 from dataclasses import replace
 
-from perception.pipeline import _associate, _palette_appearance
-from perception.types import Attributes, LiftedTrack
+from perception.pipeline import _associate, _jump_cuts, _palette_appearance
+from perception.types import Attributes, Detection, LiftedTrack, TrackState
 
 SIZE = 0.2
 
@@ -170,3 +170,28 @@ def test_a_tracklet_that_ends_on_a_stray_after_its_continuation_starts_is_contin
     three = replace(before, frames=np.append(before.frames, [37, 38, 39]), positions=np.vstack([before.positions, strays]),
                     yaw=np.full(40, np.nan), visible=np.ones(40, bool), weights=np.ones(40))
     assert len(_associate([after, three], SIZE)) == 2
+
+
+def _state(track: LiftedTrack) -> TrackState:
+    detection = Detection(0, np.zeros(1, np.int32), np.zeros(1, np.int32), 0, False, 0)
+    return TrackState(track.id, 0, detections={int(f): detection for f in track.frames},
+                      ground={int(f): p[:2] for f, p in zip(track.frames, track.positions)})
+
+
+def test_a_tracklet_that_jumps_onto_another_thing_is_cut_there_and_a_one_frame_misfit_is_not():
+    # Blender dev seed 7171, scene 11: a purple reflection on a metal neighbour was tracked from frame 2, and
+    # at frame 27 the tracklet jumped 0.36 m onto the purple sphere itself and followed it (the tracker's gate
+    # allows the jump); it is cut there, so the sphere's part can continue the sphere's own first tracklet
+    reflection = _tracklet(0, range(2, 27), (-0.09, -0.03), (0.0, 0.0))
+    sphere = _tracklet(0, range(27, 128), (-0.23, -0.36), (0.02, 0.0))
+    jumped = replace(sphere, frames=np.concatenate([reflection.frames, sphere.frames]),
+                     positions=np.concatenate([reflection.positions, sphere.positions]), yaw=np.full(126, np.nan),
+                     visible=np.ones(126, bool), weights=np.ones(126))
+    assert _jump_cuts(jumped, _state(jumped)) == [27]
+    # one misfit 0.4 m off an object's course, back on it the next frame: no cut
+    course = _tracklet(0, range(0, 60), (0.0, 0.0), (0.02, 0.0))
+    misfit = replace(course, positions=course.positions + np.where(course.frames[:, None] == 20, [0.0, 0.4, 0.0], 0.0))
+    assert _jump_cuts(misfit, _state(misfit)) == []
+    # a fast object (0.16 m a frame, 4 m/s) is not cut either
+    fast = _tracklet(0, range(0, 60), (0.0, 0.0), (0.16, 0.0))
+    assert _jump_cuts(fast, _state(fast)) == []

@@ -133,7 +133,7 @@ class PrimitiveLifter:
         isolated = _isolated_frames(track, segments)
         basis = _spread(isolated, MAX_ATTRIBUTE_FRAMES) or _spread(sorted(track.detections), MAX_ATTRIBUTE_FRAMES)
         scores = self.shape_scores(camera, track, segments, basis)
-        kind, margin, shape_score = rank_shapes(scores)
+        kind, _, shape_score = rank_shapes(scores)
         if shape_score < MIN_SHAPE_SCORE:
             return None
         appearance_frames = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)

@@ -82,10 +82,9 @@ def _one_scene(job: tuple[str, int, int, str, str, int, str]):
 
 
 def _check_phrasing(phrasing: str) -> None:
-    from synth.questions import PHRASINGS
+    from synth.questions import check_phrasing
 
-    if phrasing not in PHRASINGS:
-        raise ValueError(f"--phrasing: expected one of {', '.join(PHRASINGS)}, got {phrasing!r}")
+    check_phrasing(phrasing, "--phrasing")
 
 
 def run_questions(args: argparse.Namespace) -> int:

@@ -63,6 +63,12 @@ class Reference:
     program: tuple[str, ...]
 
 
+def check_phrasing(phrasing: str, name: str = "phrasing") -> None:
+    """ValueError naming ``name`` unless ``phrasing`` is one of PHRASINGS."""
+    if phrasing not in PHRASINGS:
+        raise ValueError(f"{name}: expected one of {', '.join(PHRASINGS)}, got {phrasing!r}")
+
+
 def _reference(obj: ObjectRecord, subset: tuple[str, ...]) -> Reference:
     """The phrase and program naming ``obj`` by the attributes of ``subset`` (in ATTRIBUTE_ORDER)."""
     words = [getattr(obj, a) for a in subset if a != "shape"]
@@ -104,8 +110,7 @@ class _Namer:
     """Names objects at each mention, by the phrasing (PHRASINGS)."""
 
     def __init__(self, scene: ProgramScene, rng: np.random.Generator, phrasing: str = "shortest"):
-        if phrasing not in PHRASINGS:
-            raise ValueError(f"phrasing: expected one of {', '.join(PHRASINGS)}, got {phrasing!r}")
+        check_phrasing(phrasing)
         if phrasing == "shortest":
             self.references = {k: [(r, 1.0) for r in refs] for k, refs in object_references(scene.objects).items()}
         else:

@@ -53,7 +53,7 @@ WEIGHT_EXTRAPOLATED = 0.05  # frames added through the border at constant veloci
 EXTRAPOLATION_BASE = 4  # frames at a track's end whose motion is extrapolated through the border
 MAX_EXTRAPOLATED_FRAMES = 10
 MAX_LINK_GAP = 40  # frames: longest gap (occlusion, lost detection) across which two tracklets are joined
-LINK_OVERLAP = 2  # samples a tracklet may hold before the one it continues ends (strays it was born on; left out of the link)
+LINK_OVERLAP = 2  # samples two linked tracklets may hold where they overlap (strays one was born on or the other ended on; left out)
 LINK_GATE = 0.45  # m: largest distance between a tracklet's predicted position and the next one's start ...
 LINK_GATE_PER_FRAME = 0.02  # ... plus this per frame of gap (the prediction is held after 5 frames)
 LINK_SPEED_SLACK = 1.5  # the jump across a gap may be this much more than the faster tracklet end's speed allows ...
@@ -446,9 +446,10 @@ def _link_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, n
     ``later``'s first position, and the jump across the gap must be one the tracklets' own speeds can
     make (a resting object does not reappear a metre away). Appearance: colour likelihood from the whole
     tracklets, soft (a colour re-read after a contact still joins) but refused when clearly another colour.
-    Where the two overlap, up to LINK_OVERLAP samples are left out (_linked_pair): of ``later`` before
-    ``earlier`` ends (the strays its tracker track was born on) or of ``earlier`` after ``later`` starts
-    (the strays its tracker track ended on); more, and the two are seen at once: not one object's pieces in turn.
+    Where the two overlap, the link is split at one frame and up to LINK_OVERLAP samples are left out
+    (_linked_pair): of ``later`` before it (the strays its tracker track was born on) and of ``earlier``
+    from it on (the strays its tracker track ended on); more, and the two are seen at once: not one
+    object's pieces in turn.
     """
     pair = _linked_pair(earlier, later, appearance)
     return np.inf if pair is None else pair[0]
@@ -456,14 +457,19 @@ def _link_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, n
 
 def _linked_pair(earlier: LiftedTrack, later: LiftedTrack,
                  appearance: dict[int, np.ndarray]) -> tuple[float, LiftedTrack, LiftedTrack] | None:
-    """(cost, earlier, later) of the cheaper way to leave the overlap of two tracklets out of a link (later's
-    samples up to earlier's end, or earlier's from later's start; at most LINK_OVERLAP samples), or None
-    when neither gives a finite cost."""
+    """(cost, earlier, later) of the cheapest way to leave the overlap of two tracklets out of a link, or None
+    when none gives a finite cost. The link is split at one frame s: ``earlier`` keeps its samples before s,
+    ``later`` its samples from s on; s ranges over the overlap, and at most LINK_OVERLAP samples may be left
+    out (cheapest first, then fewest): the strays ``later``'s tracker track was born on, the strays
+    ``earlier``'s ended on, or some of each."""
+    splits = np.union1d(later.frames[later.frames <= earlier.frames[-1]], earlier.frames[earlier.frames >= later.frames[0]])
     options = []
-    for trimmed_earlier, trimmed_later in ((earlier, _continuation(earlier, later)), (_truncation(earlier, later), later)):
-        left_out = earlier.frames.size + later.frames.size - trimmed_earlier.frames.size - trimmed_later.frames.size
-        if left_out > LINK_OVERLAP or trimmed_earlier.frames.size < 2 or trimmed_later.frames.size < 2:
+    for split in np.append(splits, earlier.frames[-1] + 1):
+        kept_earlier, kept_later = earlier.frames < split, later.frames >= split
+        left_out = int(np.count_nonzero(~kept_earlier) + np.count_nonzero(~kept_later))
+        if left_out > LINK_OVERLAP or np.count_nonzero(kept_earlier) < 2 or np.count_nonzero(kept_later) < 2:
             continue
+        trimmed_earlier, trimmed_later = _samples(earlier, kept_earlier), _samples(later, kept_later)
         cost = _motion_and_appearance_cost(trimmed_earlier, trimmed_later, appearance)
         if np.isfinite(cost):
             options.append((cost, left_out, trimmed_earlier, trimmed_later))
@@ -493,20 +499,10 @@ def _motion_and_appearance_cost(earlier: LiftedTrack, later: LiftedTrack, appear
     return distance / gate + colour / MAX_LINK_APPEARANCE + shape
 
 
-def _samples(track: LiftedTrack, kept: slice) -> LiftedTrack:
-    """The tracklet with only the samples in ``kept``."""
+def _samples(track: LiftedTrack, kept: slice | np.ndarray) -> LiftedTrack:
+    """The tracklet with only the samples in ``kept`` (a slice or a (T,) bool mask)."""
     return replace(track, frames=track.frames[kept], positions=track.positions[kept], yaw=track.yaw[kept],
                    visible=track.visible[kept], weights=track.weights[kept])
-
-
-def _continuation(earlier: LiftedTrack, later: LiftedTrack) -> LiftedTrack:
-    """``later`` without its samples up to ``earlier``'s last frame (the strays a continuation may begin with)."""
-    return _samples(later, slice(int(np.count_nonzero(later.frames <= earlier.frames[-1])), None))
-
-
-def _truncation(earlier: LiftedTrack, later: LiftedTrack) -> LiftedTrack:
-    """``earlier`` without its samples from ``later``'s first frame on (the strays a tracklet may end with)."""
-    return _samples(earlier, slice(0, int(np.count_nonzero(earlier.frames < later.frames[0]))))
 
 
 def _support(track: LiftedTrack) -> float:

@@ -172,6 +172,24 @@ def test_a_tracklet_that_ends_on_a_stray_after_its_continuation_starts_is_contin
     assert len(_associate([after, three], SIZE)) == 2
 
 
+def test_a_link_leaves_out_a_stray_on_each_side_of_one_split_frame():
+    # Blender dev seed 7171, scene 6: a blue cube's tracklet ends at frame 59 on a stray 0.4 m ahead; the one that
+    # carries it on was born on a stray at frame 54 and holds the cube from 59: split at 59, one stray each side
+    before = _tracklet(0, range(0, 59), (0.0, 0.0), (0.02, 0.0))
+    after = _tracklet(1, range(59, 128), (0.02 * 59, 0.0), (0.02, 0.0))
+    ends_on_stray = replace(before, frames=np.append(before.frames, 59), positions=np.vstack([before.positions, [1.6, 0.05, SIZE]]),
+                            yaw=np.full(60, np.nan), visible=np.ones(60, bool), weights=np.ones(60))
+    born_on_stray = replace(after, frames=np.insert(after.frames, 0, 54), positions=np.vstack([[0.98, -0.1, SIZE], after.positions]),
+                            yaw=np.full(70, np.nan), visible=np.ones(70, bool), weights=np.ones(70))
+    (joined,) = _associate([born_on_stray, ends_on_stray], SIZE)
+    assert np.array_equal(joined.frames, np.arange(128)) and np.allclose(joined.positions[:, 1], 0.0)  # no stray kept
+    # two strays on one side and one on the other are more than LINK_OVERLAP: two objects
+    two_strays = replace(born_on_stray, frames=np.insert(born_on_stray.frames, 0, 52),
+                         positions=np.vstack([[0.5, 0.6, SIZE], born_on_stray.positions]), yaw=np.full(71, np.nan),
+                         visible=np.ones(71, bool), weights=np.ones(71))
+    assert len(_associate([two_strays, ends_on_stray], SIZE)) == 2
+
+
 def _state(track: LiftedTrack) -> TrackState:
     detection = Detection(0, np.zeros(1, np.int32), np.zeros(1, np.int32), 0, False, 0)
     return TrackState(track.id, 0, detections={int(f): detection for f in track.frames},

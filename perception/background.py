@@ -52,6 +52,7 @@ MAX_NOISE = 20.0  # grey levels: cap of the noise level (a pixel crossed by obje
 SHADOW_QUANTILE = 80  # percentile over time of a pixel's bright state (the floor seen between a resting object's shadow)
 SHADOW_LIFT = 1.15  # bright state / median (mean ratio) above which, with the chroma kept, the median was a shadow
 BACKGROUND_SAMPLES = 25  # frames spread over the video for the temporal statistics
+MIN_FLOOR_SAMPLES = 3  # samples of a resting object's place that show the floor (before it came, after it left) to use them
 
 FLOOR, AMBIGUOUS, OBJECT, DEEP = 0, 1, 2, 3
 
@@ -156,13 +157,38 @@ def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLE
     shadowed = (lift_mean > SHADOW_LIFT) & kept_chroma & (np.abs(bright - floor_fit).max(axis=-1) <= threshold)
     unshadowed = np.where(shadowed[..., None], bright, median)
     static = np.where(shadowed, False, deviation > threshold)
-    image = np.where(static[..., None], floor_fit, unshadowed)
     sampled = frames[index]
+    image = np.where(static[..., None], _floor_seen(sampled, static, floor_fit, threshold), unshadowed)
     # the channel sum's noise, per channel: cheaper than per channel (summed plane by plane: a sum over a trailing axis of 3 is slow)
     grey = sampled[..., 0].astype(np.int16) + sampled[..., 1] + sampled[..., 2]
     spread = np.median(np.abs(grey - median.sum(axis=-1).astype(np.int16)), axis=0) * (1.4826 / 3.0)
     noise = np.minimum(ndi.maximum_filter(spread, size=3), MAX_NOISE).astype(np.float32)
     return Background(image=image, floor_fit=floor_fit, static=static, noise=noise)
+
+
+def _floor_seen(sampled: np.ndarray, static: np.ndarray, floor_fit: np.ndarray, threshold: float) -> np.ndarray:
+    """(H, W, 3) float32: where ``static`` (the median is not floor: an object resting most of the video), the
+    floor as the video shows it on the samples where the pixel looks like floor (within ``threshold`` of the
+    smooth model, with its chroma; at least MIN_FLOOR_SAMPLES of them: before the object came to rest or after
+    it left), else the smooth model. On a textured floor the smooth model is no floor: a checker square there
+    is read as an object once the resting one is gone.
+
+    sampled: (N, H, W, 3) uint8 frames; floor_fit: (H, W, 3) smooth floor model; threshold: static_threshold.
+    """
+    result = floor_fit.copy()
+    if not static.any():
+        return result
+    values = sampled[:, static].astype(np.float32)  # (N, P, 3)
+    model = floor_fit[static]  # (P, 3)
+    ratio = values / np.maximum(model, 1.0)
+    ratio_mean = ratio.mean(axis=-1)
+    floor_like = (np.abs(values - model).max(axis=-1) <= threshold) & (
+        np.abs(ratio - ratio_mean[..., None]).max(axis=-1) < CHROMA_OBJECT * ratio_mean)
+    enough = floor_like.sum(axis=0) >= MIN_FLOOR_SAMPLES
+    seen = np.nanmedian(np.where(floor_like[..., None], values, np.nan)[:, enough], axis=0)
+    rows, cols = np.nonzero(static)
+    result[rows[enough], cols[enough]] = seen
+    return result
 
 
 def floor_range(background: Background) -> FloorRange:

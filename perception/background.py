@@ -170,7 +170,7 @@ def _floor_seen(sampled: np.ndarray, static: np.ndarray, floor_fit: np.ndarray, 
     """(H, W, 3) float32: where ``static`` (the median is not floor: an object resting most of the video), the
     floor as the video shows it on the samples where the pixel looks like floor (within ``threshold`` of the
     smooth model, with its chroma; at least MIN_FLOOR_SAMPLES of them: before the object came to rest or after
-    it left), else the smooth model. On a textured floor the smooth model is no floor: a checker square there
+    it left; their SHADOW_QUANTILE bright state), else the smooth model. On a textured floor the smooth model is no floor: a checker square there
     is read as an object once the resting one is gone.
 
     sampled: (N, H, W, 3) uint8 frames; floor_fit: (H, W, 3) smooth floor model; threshold: static_threshold.
@@ -185,7 +185,8 @@ def _floor_seen(sampled: np.ndarray, static: np.ndarray, floor_fit: np.ndarray, 
     floor_like = (np.abs(values - model).max(axis=-1) <= threshold) & (
         np.abs(ratio - ratio_mean[..., None]).max(axis=-1) < CHROMA_OBJECT * ratio_mean)
     enough = floor_like.sum(axis=0) >= MIN_FLOOR_SAMPLES
-    seen = np.nanmedian(np.where(floor_like[..., None], values, np.nan)[:, enough], axis=0)
+    # their bright state: a floor-like sample may be in a neighbour's soft shadow, never brighter than the floor
+    seen = np.nanpercentile(np.where(floor_like[..., None], values, np.nan)[:, enough], SHADOW_QUANTILE, axis=0)
     rows, cols = np.nonzero(static)
     result[rows[enough], cols[enough]] = seen
     return result

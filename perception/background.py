@@ -158,7 +158,7 @@ def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLE
     unshadowed = np.where(shadowed[..., None], bright, median)
     static = np.where(shadowed, False, deviation > threshold)
     sampled = frames[index]
-    image = np.where(static[..., None], _floor_seen(sampled, static, floor_fit, threshold), unshadowed)
+    image = np.where(static[..., None], _floor_seen(sampled, static, median, floor_fit, threshold), unshadowed)
     # the channel sum's noise, per channel: cheaper than per channel (summed plane by plane: a sum over a trailing axis of 3 is slow)
     grey = sampled[..., 0].astype(np.int16) + sampled[..., 1] + sampled[..., 2]
     spread = np.median(np.abs(grey - median.sum(axis=-1).astype(np.int16)), axis=0) * (1.4826 / 3.0)
@@ -166,14 +166,17 @@ def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLE
     return Background(image=image, floor_fit=floor_fit, static=static, noise=noise)
 
 
-def _floor_seen(sampled: np.ndarray, static: np.ndarray, floor_fit: np.ndarray, threshold: float) -> np.ndarray:
+def _floor_seen(sampled: np.ndarray, static: np.ndarray, median: np.ndarray, floor_fit: np.ndarray,
+                threshold: float) -> np.ndarray:
     """(H, W, 3) float32: where ``static`` (the median is not floor: an object resting most of the video), the
     floor as the video shows it on the samples where the pixel looks like floor (within ``threshold`` of the
-    smooth model, with its chroma; at least MIN_FLOOR_SAMPLES of them: before the object came to rest or after
-    it left; their SHADOW_QUANTILE bright state), else the smooth model. On a textured floor the smooth model is no floor: a checker square there
+    smooth model, with its chroma, and closer to it than to the median, which is the resting object; at least
+    MIN_FLOOR_SAMPLES of them: before the object came to rest or after it left; their SHADOW_QUANTILE bright
+    state), else the smooth model. On a textured floor the smooth model is no floor: a checker square there
     is read as an object once the resting one is gone.
 
-    sampled: (N, H, W, 3) uint8 frames; floor_fit: (H, W, 3) smooth floor model; threshold: static_threshold.
+    sampled: (N, H, W, 3) uint8 frames; median, floor_fit: (H, W, 3) their median and the smooth floor model;
+    threshold: static_threshold.
     """
     result = floor_fit.copy()
     if not static.any():
@@ -182,7 +185,9 @@ def _floor_seen(sampled: np.ndarray, static: np.ndarray, floor_fit: np.ndarray, 
     model = floor_fit[static]  # (P, 3)
     ratio = values / np.maximum(model, 1.0)
     ratio_mean = ratio.mean(axis=-1)
-    floor_like = (np.abs(values - model).max(axis=-1) <= threshold) & (
+    from_model = np.abs(values - model).max(axis=-1)
+    # a grey object on a textured floor can be within the floor's texture of the model: it is the median
+    floor_like = (from_model <= threshold) & (from_model < np.abs(values - median[static]).max(axis=-1)) & (
         np.abs(ratio - ratio_mean[..., None]).max(axis=-1) < CHROMA_OBJECT * ratio_mean)
     enough = floor_like.sum(axis=0) >= MIN_FLOOR_SAMPLES
     # their bright state: a floor-like sample may be in a neighbour's soft shadow, never brighter than the floor

@@ -155,3 +155,21 @@ def test_shadow_of_a_resting_object_is_not_an_object_once_it_leaves():
     # while the shadow was there it is shadow-like (ambiguous), never an object
     assert int(is_foreground(classify_pixels(frames[0], background)[shadow]).sum()) == 0
     assert int((classify_pixels(frames[0], background)[shadow] == AMBIGUOUS).sum()) > 0.9 * shadow.sum()
+
+
+def test_a_resting_objects_place_shows_the_floor_seen_there_before_it_came():
+    """A pixel an object rests on in most frames (its median is the object, not floor) gets the floor the video
+    showed there before the object came, not the smooth floor model: on a checker floor the model is mid-grey,
+    so the squares there would be object evidence in the frames before the object arrived."""
+    floor = _floor_image(95.0, 185.0)
+    frames = np.repeat(floor[None], 25, axis=0)
+    resting = np.zeros(floor.shape[:2], bool)
+    for f in range(7, 25):  # arrives at frame 7 and stays: 18 of 25 frames
+        resting |= paint_objects(frames[f], [("sphere", "red")], [_centre_at(200, 150)])
+    frames = np.clip(frames + np.random.default_rng(3).normal(0, 1.0, frames.shape), 0, 255).astype(np.uint8)
+    background = estimate_background(frames)
+    assert bool(background.static[resting].mean() > 0.9)  # the median there is the object
+    for f in range(7):
+        assert int(is_foreground(classify_pixels(frames[f], background)[resting]).sum()) == 0
+    # while it rests there it is an object
+    assert float(is_foreground(classify_pixels(frames[-1], background)[resting]).mean()) > 0.9

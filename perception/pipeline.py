@@ -775,29 +775,45 @@ SHADOW_HUELESS = 0.8  # hue-less share of a shadow's pixels at least (the floor 
 CASTER_HUELESS = 0.5  # ... and of its caster's at most (a coloured object: which of the two is the shadow is clear)
 
 
-def _shadow_of(follower: LiftedTrack, caster: LiftedTrack, appearance: dict[int, np.ndarray], size: float) -> bool:
-    """``follower`` is ``caster``'s shadow read as an object: seen only with it, against it, at one plane offset
-    from it while it travels (a shadow cast by one light moves rigidly with its object; another object does so
-    only while pushed), hue-less where the caster is coloured (a floor darkened by the same light). Deep hard
-    shadows (Blender's sun, mean ratio to the floor about 0.4) are darker than background.DARK_OBJECT and so
-    segmented as objects; the per-pixel test cannot tell them from grey objects, the motion can."""
+def _shadow_offset(follower: LiftedTrack, caster: LiftedTrack, appearance: dict[int, np.ndarray],
+                   size: float) -> tuple[np.ndarray, bool] | None:
+    """(median plane offset (2,) m of ``follower`` from ``caster``, whether the caster travels meanwhile) when
+    ``follower`` could be ``caster``'s shadow read as an object: seen only with it, against it, at one plane
+    offset from it, hue-less where the caster is coloured (a floor darkened by the same light); else None.
+    Deep hard shadows (Blender's sun, mean ratio to the floor about 0.4; POV-Ray's low-ambient light) are darker
+    than background.DARK_OBJECT and so segmented as objects; the per-pixel test cannot tell them from grey
+    objects, the geometry can (_without_shadows)."""
     if appearance[follower.id][3] < SHADOW_HUELESS or appearance[caster.id][3] > CASTER_HUELESS:
-        return False
+        return None
     common, i_follower, i_caster = np.intersect1d(follower.frames, caster.frames, return_indices=True)
     if common.size < max(SHADOW_MIN_FRAMES, SHADOW_SHARE * follower.frames.size):
-        return False
+        return None
     path = caster.positions[i_caster, :2]
-    if np.linalg.norm(np.diff(path, axis=0), axis=1).sum() < SHADOW_TRAVEL_SIZES * size:
-        return False
     offset = follower.positions[i_follower, :2] - path
-    deviation = np.linalg.norm(offset - np.median(offset, axis=0), axis=1)
-    near = np.median(np.linalg.norm(offset, axis=1)) < SHADOW_NEAR_SIZES * size
-    return bool(near and np.percentile(deviation, 90) < SHADOW_OFFSET_SIZES * size)
+    median = np.median(offset, axis=0)
+    deviation = np.linalg.norm(offset - median, axis=1)
+    if np.linalg.norm(median) >= SHADOW_NEAR_SIZES * size or np.percentile(deviation, 90) >= SHADOW_OFFSET_SIZES * size:
+        return None
+    return median, bool(np.linalg.norm(np.diff(path, axis=0), axis=1).sum() >= SHADOW_TRAVEL_SIZES * size)
 
 
 def _without_shadows(tracks: list[LiftedTrack], appearance: dict[int, np.ndarray], size: float) -> list[LiftedTrack]:
-    """The tracks less those that are another track's shadow (_shadow_of)."""
-    return [t for t in tracks if not any(_shadow_of(t, caster, appearance, size) for caster in tracks if caster is not t)]
+    """The tracks less those that are another track's shadow. A shadow cast by one light moves rigidly with its
+    object, which another object does only while pushed, never over its whole life: a track that keeps one
+    offset from a caster that travels (_shadow_offset) is its shadow. At rest anything keeps its offset, but all
+    shadows of one video lie at about one offset from their casters (one light, objects of one size): a
+    resting pair is a shadow when its offset is within SHADOW_OFFSET_SIZES of a travelling shadow's or of
+    another resting pair's (another follower and another caster; two grey objects do not sit at one offset
+    from two others by chance)."""
+    pairs = [(follower, caster, found) for follower in tracks for caster in tracks if caster is not follower
+             for found in [_shadow_offset(follower, caster, appearance, size)] if found is not None]
+    shadows = {id(follower) for follower, _, (_, travels) in pairs if travels}
+    for follower, caster, (offset, _) in pairs:
+        if any(np.linalg.norm(offset - other) < SHADOW_OFFSET_SIZES * size
+               for other_follower, other_caster, (other, _) in pairs
+               if other_follower is not follower and other_caster is not caster):
+            shadows.add(id(follower))
+    return [t for t in tracks if id(t) not in shadows]
 
 
 def _renumber(lifted: list[LiftedTrack]) -> list[LiftedTrack]:

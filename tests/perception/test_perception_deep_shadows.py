@@ -1,6 +1,7 @@
 """Deep hard shadows (a sun with little fill, as Blender's renders have them: the shadow keeps about 0.4 of the
 floor's light, tinted by the sky) are darker than background.DARK_OBJECT and so segmented as objects; the
-shadow is told from an object by its motion (pipeline._shadow_of): it moves rigidly with its caster.
+shadow is told from an object by its geometry (pipeline._without_shadows): it moves rigidly with its caster, and
+all shadows of a video lie at about one offset from their casters.
 
 The video is painted in the test (a plain warm floor, two moving objects ray-cast with perception.geometry,
 each with a hard shadow at one offset), h264-encoded as a renderer's would be.
@@ -11,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from perception.pipeline import _palette_appearance, _shadow_of, perceive_frames
+from perception.pipeline import _palette_appearance, _without_shadows, perceive_frames
 from perception.types import Attributes, LiftedTrack
 from perception.video import read_video
 from tests.perception.test_perception_background import CAMERA, SIZE, _centre_at, _encode, _ground_xy, paint_objects
@@ -66,28 +67,48 @@ def _appearance(*tracks: LiftedTrack) -> dict[int, np.ndarray]:
     return {t.id: _palette_appearance(t.attributes.color) for t in tracks}
 
 
+def _kept(*tracks: LiftedTrack) -> list[int]:
+    """Ids of the tracks _without_shadows keeps."""
+    return sorted(t.id for t in _without_shadows(list(tracks), _appearance(*tracks), SIZE))
+
+
 def test_a_grey_track_moving_rigidly_with_a_coloured_one_is_its_shadow():
     caster = _track(0, range(0, 60), (0.0, 0.0), (0.03, 0.01))
     shadow = _track(1, range(0, 60), (-0.25, 0.12), (0.03, 0.01), color="gray")
-    assert _shadow_of(shadow, caster, _appearance(caster, shadow), SIZE)
-    assert not _shadow_of(caster, shadow, _appearance(caster, shadow), SIZE)  # the coloured one casts it
+    assert _kept(caster, shadow) == [0]  # the coloured one casts it
 
 
 def test_objects_that_only_look_or_move_like_a_shadow_are_kept():
     caster = _track(0, range(0, 60), (0.0, 0.0), (0.03, 0.01))
     coloured = _track(1, range(0, 60), (-0.25, 0.12), (0.03, 0.01), color="brown")  # pushed along its whole life
-    assert not _shadow_of(coloured, caster, _appearance(caster, coloured), SIZE)
+    assert _kept(caster, coloured) == [0, 1]
     # a grey object at rest until the caster reaches it, then pushed ahead of it
     resting = _track(2, range(0, 30), (1.3, 0.43), (0.0, 0.0), color="gray")
     pushed = _track(2, range(30, 60), (1.3, 0.43), (0.03, 0.01), color="gray")
     grey = LiftedTrack(2, resting.attributes, np.concatenate([resting.frames, pushed.frames]),
                        np.concatenate([resting.positions, pushed.positions]), np.full(60, np.nan), np.ones(60, bool), np.ones(60))
-    assert not _shadow_of(grey, caster, _appearance(caster, grey), SIZE)
-    # beside a caster at rest: nothing tells a shadow from an object
+    assert _kept(caster, grey) == [0, 2]
+    # beside a caster at rest, alone: nothing tells a shadow from an object
     still = _track(3, range(0, 60), (0.0, 0.0), (0.0, 0.0))
     beside = _track(4, range(0, 60), (-0.25, 0.12), (0.0, 0.0), color="gray")
-    assert not _shadow_of(beside, still, _appearance(still, beside), SIZE)
+    assert _kept(still, beside) == [3, 4]
     # seen long before the caster came
     early = _track(5, range(0, 60), (-0.25, 0.12), (0.0, 0.0), color="gray")
     late_caster = _track(6, range(40, 60), (0.0, 0.0), (0.05, 0.0))
-    assert not _shadow_of(early, late_caster, _appearance(early, late_caster), SIZE)
+    assert _kept(early, late_caster) == [5, 6]
+
+
+def test_resting_shadows_at_the_offset_of_the_videos_other_shadows_are_shadows():
+    # POV-Ray dev seed 7505, scene 3: two spheres at rest, each with a deep shadow 0.16 m right of and 0.3 m
+    # behind it (0.03 m apart): one light gives every shadow one offset
+    first, second = _track(0, range(0, 60), (0.0, 0.0), (0.0, 0.0)), _track(1, range(0, 60), (1.0, 0.5), (0.0, 0.0), color="cyan")
+    first_shadow = _track(2, range(0, 60), (0.16, -0.31), (0.0, 0.0), color="gray")
+    second_shadow = _track(3, range(0, 60), (1.16, 0.22), (0.0, 0.0), color="gray")
+    assert _kept(first, second, first_shadow, second_shadow) == [0, 1]
+    # a resting shadow at the offset of a moving object's shadow
+    mover = _track(4, range(0, 60), (-1.0, -1.0), (0.03, 0.01), color="blue")
+    mover_shadow = _track(5, range(0, 60), (-0.84, -1.31), (0.03, 0.01), color="gray")
+    assert _kept(first, first_shadow, mover, mover_shadow) == [0, 4]
+    # two grey objects beside resting ones, at other offsets: objects
+    other = _track(6, range(0, 60), (1.0 - 0.3, 0.5 + 0.2), (0.0, 0.0), color="gray")
+    assert _kept(first, second, first_shadow, other) == [0, 1, 2, 6]

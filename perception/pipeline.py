@@ -59,6 +59,7 @@ LINK_GATE_PER_FRAME = 0.02  # ... plus this per frame of gap (the prediction is 
 LINK_SPEED_SLACK = 1.5  # the jump across a gap may be this much more than the faster tracklet end's speed allows ...
 JUMP_M = 0.25  # m between consecutive frames: more than any object moves (4 m/s is 0.16 m/frame) ...
 JUMP_CONFIRM = 3  # ... with this many centres on each side holding their own course: another thing (_jump_cuts)
+MAX_JUMP_TRANSITION = 1  # samples between the two courses (a segment of both things at the frame of the jump)
 MAX_SPEED = 0.2  # m/frame (5 m/s at 25 fps): ... but never more than this per frame
 MAX_LINK_APPEARANCE = 0.3  # appearance_distance above which two tracklets are different objects (red vs blue, not red vs brown)
 SHAPE_MISMATCH_COST = 0.5  # added link cost when the tracklets were read as different shapes
@@ -215,7 +216,9 @@ def _jump_cuts(track: LiftedTrack, state: TrackState) -> list[int]:
     moved more than JUMP_M (faster than objects move), the JUMP_CONFIRM centres after the jump all stay more
     than JUMP_M from where the JUMP_CONFIRM before were heading, and those before from where the ones after
     came from (a one-frame misfit breaks one of the two; a track that followed a reflection on a metal
-    neighbour and then took the reflected object's own segment keeps both). Samples extrapolated through
+    neighbour and then took the reflected object's own segment keeps both). The jump may take two frames
+    (more than 2 x JUMP_M over them) with up to MAX_JUMP_TRANSITION samples between the courses: a segment of
+    both things on the frame of the jump; such a sample starts the piece after. Samples extrapolated through
     the border are not looked at."""
     own = np.isin(track.frames, list(state.detections))
     frames, xy = track.frames[own].astype(float), track.positions[own, :2]
@@ -228,11 +231,15 @@ def _jump_cuts(track: LiftedTrack, state: TrackState) -> list[int]:
 
     cuts, k = [], JUMP_CONFIRM - 1
     while k < len(frames) - JUMP_CONFIRM:
-        before, after = slice(k + 1 - JUMP_CONFIRM, k + 1), slice(k + 1, k + 1 + JUMP_CONFIRM)
-        if (frames[k + 1] - frames[k] == 1 and np.linalg.norm(xy[k + 1] - xy[k]) > JUMP_M
-                and far_from_heading(after, before) and far_from_heading(before, after)):
-            cuts.append(int(frames[k + 1]))
-            k += JUMP_CONFIRM  # the next piece needs its own JUMP_CONFIRM centres before another cut
+        before = slice(k + 1 - JUMP_CONFIRM, k + 1)
+        for step in range(1, MAX_JUMP_TRANSITION + 2):  # the jump, or the jump over a transition sample
+            after = slice(k + step, k + step + JUMP_CONFIRM)
+            if (after.stop <= len(frames) and frames[k + step] - frames[k] == step
+                    and np.linalg.norm(xy[k + step] - xy[k]) > step * JUMP_M
+                    and far_from_heading(after, before) and far_from_heading(before, after)):
+                cuts.append(int(frames[k + 1]))  # a transition sample goes with the piece after: a stray it starts on
+                k += step - 1 + JUMP_CONFIRM  # the next piece needs its own JUMP_CONFIRM centres before another cut
+                break
         else:
             k += 1
     return cuts

@@ -213,3 +213,21 @@ def test_a_tracklet_that_jumps_onto_another_thing_is_cut_there_and_a_one_frame_m
     # a fast object (0.16 m a frame, 4 m/s) is not cut either
     fast = _tracklet(0, range(0, 60), (0.0, 0.0), (0.16, 0.0))
     assert _jump_cuts(fast, _state(fast)) == []
+
+
+def test_a_jump_over_one_transition_sample_is_cut_before_it():
+    # Blender dev seed 7272, scene 14: a green track on another thing at x = 1.42 m went to 1.10 on frame 57 (a
+    # segment of both) and to 0.75 on frame 58, on the green cube, and followed it: cut at 57
+    other = _tracklet(0, range(52, 57), (1.47, -1.65), (-0.01, -0.01))
+    cube = _tracklet(0, range(58, 100), (0.75, -1.93), (-0.01, -0.01))
+    transition = np.array([[1.10, -1.77, SIZE]])
+    jumped = replace(cube, frames=np.concatenate([other.frames, [57], cube.frames]),
+                     positions=np.concatenate([other.positions, transition, cube.positions]), yaw=np.full(48, np.nan),
+                     visible=np.ones(48, bool), weights=np.ones(48))
+    assert _jump_cuts(jumped, _state(jumped)) == [57]
+    # an object struck to the top speed (0.02 then 0.16 m a frame, 0.32 m over two frames) is not cut
+    slow = _tracklet(0, range(0, 30), (0.0, 0.0), (0.02, 0.0))
+    fast = _tracklet(0, range(30, 60), (0.58 + 0.16, 0.0), (0.16, 0.0))
+    struck = replace(fast, frames=np.concatenate([slow.frames, fast.frames]), positions=np.concatenate([slow.positions, fast.positions]),
+                     yaw=np.full(60, np.nan), visible=np.ones(60, bool), weights=np.ones(60))
+    assert _jump_cuts(struck, _state(struck)) == []

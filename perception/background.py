@@ -190,8 +190,14 @@ def _floor_seen(sampled: np.ndarray, static: np.ndarray, median: np.ndarray, flo
     floor_like = (from_model <= threshold) & (from_model < np.abs(values - median[static]).max(axis=-1)) & (
         np.abs(ratio - ratio_mean[..., None]).max(axis=-1) < CHROMA_OBJECT * ratio_mean)
     enough = floor_like.sum(axis=0) >= MIN_FLOOR_SAMPLES
-    # their bright state: a floor-like sample may be in a neighbour's soft shadow, never brighter than the floor
-    seen = np.nanpercentile(np.where(floor_like[..., None], values, np.nan)[:, enough], SHADOW_QUANTILE, axis=0)
+    # their bright state: a floor-like sample may be in a neighbour's soft shadow, never brighter than the floor.
+    # np.nanpercentile's linear interpolation, on one sort (NaN last): nanpercentile itself loops in Python
+    ordered = np.sort(np.where(floor_like[..., None], values, np.nan)[:, enough], axis=0)  # (N, Q, 3)
+    position = (SHADOW_QUANTILE / 100.0) * (floor_like[:, enough].sum(axis=0) - 1)[None, :, None]  # (1, Q, 1)
+    below = np.floor(position).astype(np.intp)
+    low = np.take_along_axis(ordered, np.broadcast_to(below, (1, *ordered.shape[1:])), axis=0)
+    high = np.take_along_axis(ordered, np.broadcast_to(np.ceil(position).astype(np.intp), (1, *ordered.shape[1:])), axis=0)
+    seen = (low + (position - below) * (high - low))[0]
     rows, cols = np.nonzero(static)
     result[rows[enough], cols[enough]] = seen
     return result

@@ -11,7 +11,8 @@ import pytest
 from scipy import ndimage as ndi
 
 from perception.background import (AMBIGUOUS, BRIGHT_OBJECT, CANDIDATE_DIFFERENCE, CHROMA_OBJECT, DARK_OBJECT, DEEP,
-                                   FLOOR, FLOOR_RATIO, NOISE_MULTIPLE, OBJECT, Background, classify_pixels, fit_floor, floor_range)
+                                   FLOOR, FLOOR_RATIO, MIN_FLOOR_SAMPLES, NOISE_MULTIPLE, OBJECT, SHADOW_QUANTILE, Background,
+                                   _floor_seen, classify_pixels, fit_floor, floor_range)
 from perception.geometry import Box2D, ground_jacobian, window_rays
 from perception.lift import shift_scores
 from perception.segment import DARK_HUE_SPREAD, MIN_BRIGHTNESS, MIN_SATURATION, fill_holes, open_2x2, pixel_hue_labels
@@ -220,3 +221,34 @@ def test_ground_jacobian_is_the_per_axis_finite_difference():
         moved[axis] += 1e-3
         columns.append((project(camera, moved) - project(camera, point)) / 1e-3)
     np.testing.assert_allclose(ground_jacobian(camera, point), np.stack(columns, axis=1), rtol=1e-9, atol=1e-9)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_floor_seen_at_resting_places_is_the_bright_state_of_the_floor_like_samples(seed):
+    """background._floor_seen, pixel by pixel from its definition: at a static pixel, the SHADOW_QUANTILE
+    percentile of the samples within the threshold of the model, with its chroma and closer to it than to
+    the median, when at least MIN_FLOOR_SAMPLES are; else the model."""
+    rng = np.random.default_rng(seed)
+    count, height, width, threshold = 25, 12, 14, 20.0
+    model = np.full((height, width, 3), 150.0, np.float32) + rng.normal(0, 3, (height, width, 3)).astype(np.float32)
+    floor = np.clip(model + rng.normal(0, 8, (height, width, 3)), 0, 255)
+    resting = rng.uniform(0, 255, (height, width, 3))  # a resting object's colour
+    covered = rng.uniform(size=(count, height, width)) < rng.uniform(0.3, 1.0, (1, height, width))
+    sampled = np.where(covered[..., None], resting, floor) + rng.normal(0, 2, (count, height, width, 3))
+    sampled = np.clip(sampled, 0, 255).astype(np.uint8)
+    median = np.median(sampled.astype(np.float32), axis=0)
+    static = rng.uniform(size=(height, width)) < 0.7
+    seen = _floor_seen(sampled, static, median, model, threshold)
+    for y in range(height):
+        for x in range(width):
+            if not static[y, x]:
+                assert np.array_equal(seen[y, x], model[y, x])
+                continue
+            values = sampled[:, y, x].astype(np.float64)
+            ratio = values / np.maximum(model[y, x].astype(np.float64), 1.0)
+            mean = ratio.mean(axis=1)
+            from_model = np.abs(values - model[y, x]).max(axis=1)
+            like = ((from_model <= threshold) & (from_model < np.abs(values - median[y, x]).max(axis=1))
+                    & (np.abs(ratio - mean[:, None]).max(axis=1) < CHROMA_OBJECT * mean))
+            expected = np.percentile(values[like], SHADOW_QUANTILE, axis=0) if like.sum() >= MIN_FLOOR_SAMPLES else model[y, x]
+            np.testing.assert_allclose(seen[y, x], expected, rtol=0, atol=1e-3)

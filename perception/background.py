@@ -158,7 +158,9 @@ def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLE
     unshadowed = np.where(shadowed[..., None], bright, median)
     static = np.where(shadowed, False, deviation > threshold)
     sampled = frames[index]
-    image = np.where(static[..., None], _floor_seen(sampled, static, median, floor_fit, threshold), unshadowed)
+    # a flat floor is the smooth model; on a textured one (the threshold is its texture's) the model is no floor
+    floor = _floor_seen(sampled, static, median, floor_fit, threshold) if threshold > FLOOR_DEVIATION else floor_fit
+    image = np.where(static[..., None], floor, unshadowed)
     # the channel sum's noise, per channel: cheaper than per channel (summed plane by plane: a sum over a trailing axis of 3 is slow)
     grey = sampled[..., 0].astype(np.int16) + sampled[..., 1] + sampled[..., 2]
     spread = np.median(np.abs(grey - median.sum(axis=-1).astype(np.int16)), axis=0) * (1.4826 / 3.0)

@@ -5,11 +5,14 @@ Background (estimate_background), from up to 25 frames spread over the video:
 * per pixel the temporal median, except where the pixel spends a good part of the video in a
   shadow (a resting object's): there its bright, floor-chroma state (the 80th percentile) is the
   floor, so the shadow's ghost is not an object once the object leaves;
-* where the median is still not floor (an object resting the whole video, or its shadow), a smooth
-  floor model (a robust quadratic in pixel coordinates per channel) replaces it. "Not floor" is
-  judged against the floor's own texture: a checker, granite or image floor deviates from a
-  quadratic everywhere, so the deviation threshold is the video's typical deviation plus a multiple
-  of its spread (a flat floor keeps the fixed 14 grey levels) and the texture stays in the background;
+* where the median is still not floor (an object resting most of the video, or its shadow): on a
+  textured floor, the floor the video showed there before the object came or after it left
+  (_floor_seen); on a flat floor, and where no floor was seen, a smooth floor model (a robust
+  quadratic in pixel coordinates per channel). "Not floor" is judged against the floor's own
+  texture: a checker, granite or image floor deviates from a quadratic everywhere, so the deviation
+  threshold is the video's typical deviation plus a multiple of its spread (a flat floor keeps the
+  fixed 14 grey levels) and the texture stays in the background; at a resting object's place the
+  smooth model is no textured floor (its squares would be objects once the object is gone);
 * per pixel a noise level: the robust temporal spread (MAD) of the pixel's channel sum over the
   sampled frames, per channel, widened by a 3x3 maximum (grainy soft shadows, h264 flicker at texture edges).
 

@@ -173,3 +173,17 @@ def test_a_resting_objects_place_shows_the_floor_seen_there_before_it_came():
         assert int(is_foreground(classify_pixels(frames[f], background)[resting]).sum()) == 0
     # while it rests there it is an object
     assert float(is_foreground(classify_pixels(frames[-1], background)[resting]).mean()) > 0.9
+
+
+def test_a_resting_objects_place_on_a_flat_floor_is_the_smooth_floor_model():
+    """On a flat floor (no texture sets the static threshold) a resting object's place keeps the smooth model:
+    the model is the floor there, and the samples around the object's edge are no better."""
+    floor = np.full((CAMERA.height, CAMERA.width, 3), 150.0) * np.array([1.0, 0.97, 0.92])
+    frames = np.repeat(floor[None], 25, axis=0)
+    resting = np.zeros(floor.shape[:2], bool)
+    for f in range(7, 25):
+        resting |= paint_objects(frames[f], [("sphere", "red")], [_centre_at(200, 150)])
+    frames = np.clip(frames + np.random.default_rng(3).normal(0, 1.0, frames.shape), 0, 255).astype(np.uint8)
+    background = estimate_background(frames)
+    assert bool(background.static[resting].mean() > 0.9)
+    np.testing.assert_array_equal(background.image[background.static], background.floor_fit[background.static])

@@ -446,29 +446,20 @@ def _end_velocity(track: LiftedTrack, at_start: bool) -> np.ndarray:
     return (positions[-1] - positions[0]) / max(int(frames[-1] - frames[0]), 1)
 
 
-def _link_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, np.ndarray]) -> float:
-    """Cost (dimensionless, < LINK_REFUSED) that ``later`` continues ``earlier``, or inf when they cannot be one object.
+def _linked_pair(earlier: LiftedTrack, later: LiftedTrack,
+                 appearance: dict[int, np.ndarray]) -> tuple[float, LiftedTrack, LiftedTrack] | None:
+    """(cost, earlier, later) that ``later`` continues ``earlier``, with the samples left out of the link, or
+    None when they cannot be one object. The cost is dimensionless (< LINK_REFUSED to link).
 
     Motion: ``earlier``'s constant-velocity prediction (held after 5 frames) must land within a gate of
     ``later``'s first position, and the jump across the gap must be one the tracklets' own speeds can
     make (a resting object does not reappear a metre away). Appearance: colour likelihood from the whole
     tracklets, soft (a colour re-read after a contact still joins) but refused when clearly another colour.
-    Where the two overlap, the link is split at one frame and up to LINK_OVERLAP samples are left out
-    (_linked_pair): of ``later`` before it (the strays its tracker track was born on) and of ``earlier``
-    from it on (the strays its tracker track ended on); more, and the two are seen at once: not one
-    object's pieces in turn.
-    """
-    pair = _linked_pair(earlier, later, appearance)
-    return np.inf if pair is None else pair[0]
-
-
-def _linked_pair(earlier: LiftedTrack, later: LiftedTrack,
-                 appearance: dict[int, np.ndarray]) -> tuple[float, LiftedTrack, LiftedTrack] | None:
-    """(cost, earlier, later) of the cheapest way to leave the overlap of two tracklets out of a link, or None
-    when none gives a finite cost. The link is split at one frame s: ``earlier`` keeps its samples before s,
+    Where the two overlap, the link is split at one frame s: ``earlier`` keeps its samples before s,
     ``later`` its samples from s on; s ranges over the overlap, and at most LINK_OVERLAP samples may be left
     out (cheapest first, then fewest): the strays ``later``'s tracker track was born on, the strays
-    ``earlier``'s ended on, or some of each."""
+    ``earlier``'s ended on, or some of each; more, and the two are seen at once: not one object's pieces
+    in turn."""
     splits = np.union1d(later.frames[later.frames <= earlier.frames[-1]], earlier.frames[earlier.frames >= later.frames[0]])
     options = []
     for split in np.append(splits, earlier.frames[-1] + 1):
@@ -487,7 +478,7 @@ def _linked_pair(earlier: LiftedTrack, later: LiftedTrack,
 
 
 def _motion_and_appearance_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, np.ndarray]) -> float:
-    """_link_cost of two tracklets that do not overlap in time."""
+    """The link cost (_linked_pair) of two tracklets that do not overlap in time; inf when refused."""
     gap = int(later.frames[0] - earlier.frames[-1])
     if gap > MAX_LINK_GAP:
         return np.inf
@@ -506,8 +497,8 @@ def _motion_and_appearance_cost(earlier: LiftedTrack, later: LiftedTrack, appear
     return distance / gate + colour / MAX_LINK_APPEARANCE + shape
 
 
-def _samples(track: LiftedTrack, kept: slice | np.ndarray) -> LiftedTrack:
-    """The tracklet with only the samples in ``kept`` (a slice or a (T,) bool mask)."""
+def _samples(track: LiftedTrack, kept: np.ndarray) -> LiftedTrack:
+    """The tracklet with only the samples where the (T,) bool mask ``kept`` is true."""
     return replace(track, frames=track.frames[kept], positions=track.positions[kept], yaw=track.yaw[kept],
                    visible=track.visible[kept], weights=track.weights[kept])
 
@@ -627,7 +618,8 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
     count = len(kept)
     if count < 2:
         return kept
-    costs = np.array([[_link_cost(a, b, appearance) if i != j else np.inf for j, b in enumerate(kept)] for i, a in enumerate(kept)])
+    pairs = [[_linked_pair(a, b, appearance) if i != j else None for j, b in enumerate(kept)] for i, a in enumerate(kept)]
+    costs = np.array([[np.inf if pair is None else pair[0] for pair in row] for row in pairs])
     # Columns 0..n-1: "continues as tracklet j"; column n+i: "ends here" at cost LINK_REFUSED.
     table = np.full((count, 2 * count), 1e9)
     table[:, :count] = np.where(np.isfinite(costs), costs, 1e9)
@@ -814,13 +806,13 @@ def _without_shadows(tracks: list[LiftedTrack], appearance: dict[int, np.ndarray
     from two others by chance)."""
     pairs = [(follower, caster, found) for follower in tracks for caster in tracks if caster is not follower
              for found in [_shadow_offset(follower, caster, appearance, size)] if found is not None]
-    shadows = {id(follower) for follower, _, (_, travels) in pairs if travels}
+    shadows = {follower.id for follower, _, (_, travels) in pairs if travels}
     for follower, caster, (offset, _) in pairs:
         if any(np.linalg.norm(offset - other) < SHADOW_OFFSET_SIZES * size
                for other_follower, other_caster, (other, _) in pairs
                if other_follower is not follower and other_caster is not caster):
-            shadows.add(id(follower))
-    return [t for t in tracks if id(t) not in shadows]
+            shadows.add(follower.id)
+    return [t for t in tracks if t.id not in shadows]
 
 
 def _renumber(lifted: list[LiftedTrack]) -> list[LiftedTrack]:

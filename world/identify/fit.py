@@ -33,7 +33,8 @@ from world.identify.graph import connected_components
 from world.identify.jacobian import SecantJacobian
 from world.identify.materials import MaterialRevision, REPORT_CHANGE, prior_mass, revise_materials
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, late_departure, robust_residuals, tail_state
-from world.identify.segments import CandidateCollision, contact_episode_starts, find_candidate_collisions, precise_tracks
+from world.identify.segments import (MIN_REST_SAMPLES, CandidateCollision, contact_episode_starts, find_candidate_collisions,
+                                     precise_tracks, unexplained_start)
 from world.observations import ObjectTrack, Observations
 from world.rollout import footprint_of, simulate
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
@@ -904,6 +905,7 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
     """identify's stages, in order (docs/identification.md)."""
     began, began_cpu = time.perf_counter(), _budget_clock()
     usable, flags = _observed_tracks(observations)
+    usable = _entering_at_unexplained_starts(usable, observations, config, flags)
     candidates, track_fits = _local_fits(usable, observations, config)
     late = _late_pairs(candidates, observations, config)
     log_ratios, pair_e = _response_estimates(candidates)
@@ -992,6 +994,26 @@ def _observed_tracks(observations: Observations) -> tuple[list[ObjectTrack], dic
     return usable, flags
 
 
+def _entering_at_unexplained_starts(usable: Sequence[ObjectTrack], observations: Observations, config: FitConfig,
+                                    flags: dict[int, list[str]]) -> list[ObjectTrack]:
+    """The tracks, those of bodies seen at rest and then set moving by nothing the tracks show
+    (segments.unexplained_start) starting there: their earlier samples weigh 0, so the body enters the world
+    at that frame with the motion it was seen to have (the world moves bodies only by collisions; one slide
+    through the rest and the motion is metres off both). Appends to ``flags``."""
+    candidates = find_candidate_collisions(
+        Observations(tuple(usable), observations.fps, observations.num_frames, observations.camera),
+        config.gravity, config.friction_prior,
+    )
+    tracks = []
+    for track in usable:
+        start = unexplained_start(track, candidates, observations.fps, config.gravity, config.friction_prior)
+        if start is not None:
+            flags[track.id].append(f"seen at rest until frame {start}, then moving with no collision seen: enters the world there")
+            track = replace(track, weights=np.where(track.frames < start, 0.0, track.weights))
+        tracks.append(track)
+    return tracks
+
+
 def _local_fits(
     usable: Sequence[ObjectTrack], observations: Observations, config: FitConfig
 ) -> tuple[list, dict[int, TrackFit]]:
@@ -1048,7 +1070,7 @@ def _initial_estimates(
     for track in usable:
         fit = track_fits[track.id]
         first = fit.stretches[0]
-        rest_start = first.samples >= 3 and not np.any(first.velocity)
+        rest_start = first.samples >= MIN_REST_SAMPLES and not np.any(first.velocity)
         if first.samples < 3 and len(fit.stretches) > 1:
             # A contact right after entering the view: the velocity before it
             # was never seen. Start from the next stretch's velocity and let

@@ -14,6 +14,7 @@ also the world's record of observed collisions (World.observed_collisions).
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Sequence
 
 import numpy as np
 
@@ -72,6 +73,9 @@ TOUCH_GAP = 0.0015
 # Sub-frame times (share of a frame after each frame) at which the motion
 # continued from the frame is tested for a touch between two frames.
 SUB_FRAME_STEPS = (0.25, 0.5, 0.75)
+# Samples a side needs to show a body at rest, or moving, around an unexplained start (unexplained_start);
+# the local fit's own count for a rest start (fit._initial_estimates).
+MIN_REST_SAMPLES = 3
 
 
 @dataclass(frozen=True)
@@ -519,3 +523,30 @@ def find_candidate_collisions(
         normal = offset / max(float(np.hypot(*offset)), 1e-9)
         candidates.append(CandidateCollision(pair, frame, np.array(pre), np.array(post), normal))
     return candidates
+
+
+def unexplained_start(track: ObjectTrack, candidates: Sequence[CandidateCollision], fps: float,
+                      gravity: float = 9.81, friction_prior: float = 0.3) -> int | None:
+    """The frame at which a body seen at rest starts to move with no collision of its own to explain it (a
+    launch, or a hit by a body the tracks do not show), else None.
+
+    The world moves a body only by collisions: fitted as one slide, the rest and the motion average into a
+    path that is neither (metres off both). The body must be seen at rest (a slide fit with zero velocity,
+    the local fit's own test) on at least MIN_REST_SAMPLES samples before its first change point and moving
+    after it, and no candidate collision of the body may come before that change point's event ends
+    (MIN_SEPARATION frames).
+    """
+    points = change_points(track, fps)
+    if not points:
+        return None
+    start = points[0]
+    if any(track.id in c.bodies and c.frame < start + MIN_SEPARATION for c in candidates):
+        return None
+    sides = []
+    for inside in (track.observed & (track.frames < start - 1), track.observed & (track.frames > start + 1)):
+        if inside.sum() < MIN_REST_SAMPLES:
+            return None
+        sides.append(fit_slide(track.frames[inside] / fps, track.positions[inside, :2], track.weights[inside],
+                               gravity, friction_prior).velocity)
+    moved_before, moving_after = (bool(np.any(velocity)) for velocity in sides)
+    return start if moving_after and not moved_before else None

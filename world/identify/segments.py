@@ -531,22 +531,28 @@ def unexplained_start(track: ObjectTrack, candidates: Sequence[CandidateCollisio
     launch, or a hit by a body the tracks do not show), else None.
 
     The world moves a body only by collisions: fitted as one slide, the rest and the motion average into a
-    path that is neither (metres off both). The body must be seen at rest (a slide fit with zero velocity,
-    the local fit's own test) on at least MIN_REST_SAMPLES samples before its first change point and moving
-    after it, and no candidate collision of the body may come before that change point's event ends
-    (MIN_SEPARATION frames).
+    path that is neither (metres off both). The start is the first change point after which the body moves
+    (a slide fit with non-zero velocity up to its next change point) while it was at rest before (zero
+    velocity, the local fit's own test), each side seen on at least MIN_REST_SAMPLES samples; change points
+    of noise at rest are passed over. None when a candidate collision of the body comes first (before the
+    start's event ends, MIN_SEPARATION frames) or the body moved before.
     """
     points = change_points(track, fps)
-    if not points:
-        return None
-    start = points[0]
-    if any(track.id in c.bodies and c.frame < start + MIN_SEPARATION for c in candidates):
-        return None
-    sides = []
-    for inside in (track.observed & (track.frames < start - 1), track.observed & (track.frames > start + 1)):
+
+    def moves(inside: np.ndarray) -> bool | None:
         if inside.sum() < MIN_REST_SAMPLES:
             return None
-        sides.append(fit_slide(track.frames[inside] / fps, track.positions[inside, :2], track.weights[inside],
-                               gravity, friction_prior).velocity)
-    moved_before, moving_after = (bool(np.any(velocity)) for velocity in sides)
-    return start if moving_after and not moved_before else None
+        return bool(np.any(fit_slide(track.frames[inside] / fps, track.positions[inside, :2], track.weights[inside],
+                                     gravity, friction_prior).velocity))
+
+    for start, following in zip(points, [*points[1:], int(track.frames[-1]) + 2]):
+        if any(track.id in c.bodies and c.frame < start + MIN_SEPARATION for c in candidates):
+            return None
+        before = moves(track.observed & (track.frames < start - 1))
+        if before is None:
+            continue
+        if before:
+            return None
+        if moves(track.observed & (track.frames > start + 1) & (track.frames < following - 1)):
+            return start
+    return None

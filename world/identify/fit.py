@@ -1006,7 +1006,7 @@ def _entering_at_unexplained_starts(usable: Sequence[ObjectTrack], observations:
     )
     tracks = []
     for track in usable:
-        start = unexplained_start(track, candidates, observations.fps, config.gravity, config.friction_prior)
+        start = unexplained_start(track, usable, candidates, observations.fps, config.gravity, config.friction_prior)
         if start is not None:
             flags[track.id].append(f"seen at rest until frame {start}, then moving with no collision seen: enters the world there")
             track = replace(track, weights=np.where(track.frames < start, 0.0, track.weights))

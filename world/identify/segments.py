@@ -525,8 +525,8 @@ def find_candidate_collisions(
     return candidates
 
 
-def unexplained_start(track: ObjectTrack, candidates: Sequence[CandidateCollision], fps: float,
-                      gravity: float = 9.81, friction_prior: float = 0.3) -> int | None:
+def unexplained_start(track: ObjectTrack, observed_tracks: Sequence[ObjectTrack], candidates: Sequence[CandidateCollision],
+                      fps: float, gravity: float = 9.81, friction_prior: float = 0.3) -> int | None:
     """The frame at which a body seen at rest starts to move with no collision of its own to explain it (a
     launch, or a hit by a body the tracks do not show), else None.
 
@@ -535,7 +535,9 @@ def unexplained_start(track: ObjectTrack, candidates: Sequence[CandidateCollisio
     (a slide fit with non-zero velocity up to its next change point) while it was at rest before (zero
     velocity, the local fit's own test), each side seen on at least MIN_REST_SAMPLES samples; change points
     of noise at rest are passed over. None when a candidate collision of the body comes first (before the
-    start's event ends, MIN_SEPARATION frames) or the body moved before.
+    start's event ends, MIN_SEPARATION frames), when the body moved before, or when another of
+    ``observed_tracks`` comes within one width of it (twice its contact_radius, bounding circles within
+    +-2 frames) at the start.
     """
     points = change_points(track, fps)
 
@@ -554,5 +556,9 @@ def unexplained_start(track: ObjectTrack, candidates: Sequence[CandidateCollisio
         if before:
             return None
         if moves(track.observed & (track.frames > start + 1) & (track.frames < following - 1)):
-            return start
+            # A body within one width of it may have hit it where the change points missed the contact
+            # (mistimed, or its track lost there): left to the fit.
+            others = (o for o in observed_tracks if o.id != track.id)
+            near = any(_gap(track, other, start) <= 2 * contact_radius(track) for other in others)
+            return None if near else start
     return None

@@ -532,7 +532,8 @@ def unexplained_start(track: ObjectTrack, observed_tracks: Sequence[ObjectTrack]
 
     The world moves a body only by collisions: fitted as one slide, the rest and the motion average into a
     path that is neither (metres off both). The start is the first change point after which the body moves
-    (a slide fit with non-zero velocity up to its next change point) while it was at rest before (zero
+    (a slide fit with non-zero velocity up to its next change point, reaching farther than its own
+    contact_radius from where it rested by then) while it was at rest before (zero
     velocity, the local fit's own test), each side seen on at least MIN_REST_SAMPLES samples; change points
     of noise at rest are passed over. None when a candidate collision of the body comes first (before the
     start's event ends, MIN_SEPARATION frames), when the body moved before, or when another of
@@ -555,7 +556,12 @@ def unexplained_start(track: ObjectTrack, observed_tracks: Sequence[ObjectTrack]
             continue
         if before:
             return None
-        if moves(track.observed & (track.frames > start + 1) & (track.frames < following - 1)):
+        after = track.observed & (track.frames > start + 1) & (track.frames < following - 1)
+        rest = np.median(track.positions[track.observed & (track.frames < start - 1), :2], axis=0)
+        # Noise at rest can pass for motion in a slide fit; a start carries the body beyond its own reach
+        # before anything else happens to it.
+        travels = float(np.max(np.hypot(*(track.positions[after, :2] - rest).T), initial=0.0)) > contact_radius(track)
+        if travels and moves(after):
             # A body within one width of it may have hit it where the change points missed the contact
             # (mistimed, or its track lost there): left to the fit.
             others = (o for o in observed_tracks if o.id != track.id)

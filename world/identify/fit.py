@@ -905,8 +905,11 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
     """identify's stages, in order (docs/identification.md)."""
     began, began_cpu = time.perf_counter(), _budget_clock()
     usable, flags = _observed_tracks(observations)
-    usable = _entering_at_unexplained_starts(usable, observations, config, flags)
-    candidates, track_fits = _local_fits(usable, observations, config)
+    candidates = _candidates(usable, observations, config)
+    usable, started = _entering_at_unexplained_starts(usable, candidates, observations.fps, config, flags)
+    if started:
+        candidates = _candidates(usable, observations, config)
+    track_fits = _local_fits(usable, candidates, observations.fps, config)
     late = _late_pairs(candidates, observations, config)
     log_ratios, pair_e = _response_estimates(candidates)
     pair_e = {pair: e for pair, e in pair_e.items() if pair not in late}  # too little of the response to read e
@@ -994,40 +997,39 @@ def _observed_tracks(observations: Observations) -> tuple[list[ObjectTrack], dic
     return usable, flags
 
 
-def _entering_at_unexplained_starts(usable: Sequence[ObjectTrack], observations: Observations, config: FitConfig,
-                                    flags: dict[int, list[str]]) -> list[ObjectTrack]:
+def _candidates(usable: Sequence[ObjectTrack], observations: Observations, config: FitConfig) -> list[CandidateCollision]:
+    """Stage 1: candidate collisions from the usable tracks."""
+    return find_candidate_collisions(
+        Observations(tuple(usable), observations.fps, observations.num_frames, observations.camera),
+        config.gravity, config.friction_prior,
+    )
+
+
+def _entering_at_unexplained_starts(usable: Sequence[ObjectTrack], candidates: Sequence[CandidateCollision], fps: float,
+                                    config: FitConfig, flags: dict[int, list[str]]) -> tuple[list[ObjectTrack], bool]:
     """The tracks, those of bodies seen at rest and then set moving by nothing the tracks show
     (segments.unexplained_start) starting there: their earlier samples weigh 0, so the body enters the world
     at that frame with the motion it was seen to have (the world moves bodies only by collisions; one slide
-    through the rest and the motion is metres off both). Appends to ``flags``."""
-    candidates = find_candidate_collisions(
-        Observations(tuple(usable), observations.fps, observations.num_frames, observations.camera),
-        config.gravity, config.friction_prior,
-    )
-    tracks = []
+    through the rest and the motion is metres off both); and whether any did. Appends to ``flags``."""
+    tracks, started = [], False
     for track in usable:
-        start = unexplained_start(track, usable, candidates, observations.fps, config.gravity, config.friction_prior)
+        start = unexplained_start(track, usable, candidates, fps, config.gravity, config.friction_prior)
         if start is not None:
             flags[track.id].append(f"seen at rest until frame {start}, then moving with no collision seen: enters the world there")
             track = replace(track, weights=np.where(track.frames < start, 0.0, track.weights))
+            started = True
         tracks.append(track)
-    return tracks
+    return tracks, started
 
 
-def _local_fits(
-    usable: Sequence[ObjectTrack], observations: Observations, config: FitConfig
-) -> tuple[list, dict[int, TrackFit]]:
-    """Stages 1-2: candidate collisions from the tracks, then closed-form fits of every collision-free stretch."""
-    candidates = find_candidate_collisions(
-        Observations(tuple(usable), observations.fps, observations.num_frames, observations.camera),
-        config.gravity, config.friction_prior,
-    )
+def _local_fits(usable: Sequence[ObjectTrack], candidates: Sequence[CandidateCollision], fps: float,
+                config: FitConfig) -> dict[int, TrackFit]:
+    """Stage 2: closed-form fits of every collision-free stretch, split at the candidates."""
     breakpoints: dict[int, list[int]] = {t.id: [] for t in usable}
     for c in candidates:
         for body in c.bodies:
             breakpoints[body].append(c.frame)
-    track_fits = {t.id: _fit_stretches(t, breakpoints[t.id], observations.fps, config) for t in usable}
-    return candidates, track_fits
+    return {t.id: _fit_stretches(t, breakpoints[t.id], fps, config) for t in usable}
 
 
 def _component_masses(

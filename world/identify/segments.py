@@ -533,12 +533,11 @@ def unexplained_start(track: ObjectTrack, observed_tracks: Sequence[ObjectTrack]
     The world moves a body only by collisions: fitted as one slide, the rest and the motion average into a
     path that is neither (metres off both). The start is the first change point after which the body moves
     (a slide fit with non-zero velocity up to its next change point, reaching farther than its own
-    contact_radius from where it rested by then) while it was at rest before (zero
-    velocity, the local fit's own test), each side seen on at least MIN_REST_SAMPLES samples; change points
-    of noise at rest are passed over. None when a candidate collision of the body comes first (before the
-    start's event ends, MIN_SEPARATION frames), when the body moved before, or when another of
-    ``observed_tracks`` comes within one width of it (twice its contact_radius, bounding circles within
-    +-2 frames) at the start.
+    contact_radius from where it rested by then) while it was at rest before (zero velocity, the local fit's
+    own test), each side seen on at least MIN_REST_SAMPLES samples; change points of noise at rest are
+    passed over. None when a candidate collision of the body comes first (before the start's event ends,
+    MIN_SEPARATION frames), when the body moved before, or when another of ``observed_tracks`` comes within
+    one width of it at the start (bounding circles closer than twice its contact_radius, +-2 frames).
     """
     points = change_points(track, fps)
 
@@ -551,13 +550,14 @@ def unexplained_start(track: ObjectTrack, observed_tracks: Sequence[ObjectTrack]
     for start, following in zip(points, [*points[1:], int(track.frames[-1]) + 2]):
         if any(track.id in c.bodies and c.frame < start + MIN_SEPARATION for c in candidates):
             return None
-        before = moves(track.observed & (track.frames < start - 1))
-        if before is None:
+        resting = track.observed & (track.frames < start - 1)
+        moved_before = moves(resting)
+        if moved_before is None:
             continue
-        if before:
+        if moved_before:
             return None
         after = track.observed & (track.frames > start + 1) & (track.frames < following - 1)
-        rest = np.median(track.positions[track.observed & (track.frames < start - 1), :2], axis=0)
+        rest = np.median(track.positions[resting, :2], axis=0)
         # Noise at rest can pass for motion in a slide fit; a start carries the body beyond its own reach
         # before anything else happens to it.
         travels = float(np.max(np.hypot(*(track.positions[after, :2] - rest).T), initial=0.0)) > contact_radius(track)

@@ -155,7 +155,7 @@ def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLE
     threshold = static_threshold(deviation)
     lift = bright / np.maximum(median, 1.0)
     lift_mean = lift.mean(axis=-1)
-    kept_chroma = np.abs(lift - lift_mean[..., None]).max(axis=-1) / lift_mean < CHROMA_OBJECT
+    kept_chroma = _same_chroma(lift, lift_mean)
     # the bright state must itself look like floor: a grey object resting part of the video is not the floor
     shadowed = (lift_mean > SHADOW_LIFT) & kept_chroma & (np.abs(bright - floor_fit).max(axis=-1) <= threshold)
     unshadowed = np.where(shadowed[..., None], bright, median)
@@ -169,6 +169,13 @@ def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLE
     spread = np.median(np.abs(grey - median.sum(axis=-1).astype(np.int16)), axis=0) * (1.4826 / 3.0)
     noise = np.minimum(ndi.maximum_filter(spread, size=3), MAX_NOISE).astype(np.float32)
     return Background(image=image, floor_fit=floor_fit, static=static, noise=noise)
+
+
+def _same_chroma(ratio: np.ndarray, ratio_mean: np.ndarray | None = None) -> np.ndarray:
+    """(...) bool: the (..., 3) per-channel ratios of two colours agree within CHROMA_OBJECT of their mean
+    (``ratio_mean``, computed when not given): one colour lit more or less, not another colour."""
+    ratio_mean = ratio.mean(axis=-1) if ratio_mean is None else ratio_mean
+    return np.abs(ratio - ratio_mean[..., None]).max(axis=-1) < CHROMA_OBJECT * ratio_mean
 
 
 def _floor_seen(sampled: np.ndarray, static: np.ndarray, median: np.ndarray, floor_fit: np.ndarray,
@@ -189,11 +196,9 @@ def _floor_seen(sampled: np.ndarray, static: np.ndarray, median: np.ndarray, flo
     values = sampled[:, static].astype(np.float32)  # (N, P, 3)
     model = floor_fit[static]  # (P, 3)
     ratio = values / np.maximum(model, 1.0)
-    ratio_mean = ratio.mean(axis=-1)
     from_model = np.abs(values - model).max(axis=-1)
     # a grey object on a textured floor can be within the floor's texture of the model: it is the median
-    floor_like = (from_model <= threshold) & (from_model < np.abs(values - median[static]).max(axis=-1)) & (
-        np.abs(ratio - ratio_mean[..., None]).max(axis=-1) < CHROMA_OBJECT * ratio_mean)
+    floor_like = (from_model <= threshold) & (from_model < np.abs(values - median[static]).max(axis=-1)) & _same_chroma(ratio)
     enough = floor_like.sum(axis=0) >= MIN_FLOOR_SAMPLES
     # their bright state: a floor-like sample may be in a neighbour's soft shadow, never brighter than the floor.
     # np.nanpercentile's linear interpolation, on one sort (NaN last): nanpercentile itself loops in Python

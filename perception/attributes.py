@@ -75,6 +75,7 @@ def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: D
     """J_shape = |S & D| / (|D| + |S & floor| + AMBIGUOUS_WEIGHT |S & ambiguous|) of the primitive's silhouette S
     at its fitted pose and the detection D (labels: the frame's (H, W) pixel labels), in [0, 1]; the
     detection's own shadow (``shadow``: segment.own_shadow's (area,) mask) counts as ambiguous, not as D.
+    For a grey (hue-less) detection ambiguous pixels weigh 0: its top and lit faces are shadow-like.
 
     The fit's own overlap counts shadow-like (ambiguous) pixels neither for nor against, which is right
     for placing a primitive (a grey rubber object is only half certain) but lets a larger primitive win
@@ -91,7 +92,10 @@ def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: D
     hits = float((covered & ~shadow).sum())
     floor = float((sil & (region == FLOOR)).sum())
     ambiguous = float((sil & (region == AMBIGUOUS)).sum()) + float((covered & shadow).sum())
-    return hits / (detection.area - float(shadow.sum()) + floor + AMBIGUOUS_WEIGHT * ambiguous)
+    # A hue-less object's lit faces are shadow-like themselves (the floor's chroma, darker than the floor): for
+    # it a shadow-like pixel is as likely its body as its shadow, and counts neither for nor against.
+    weight = 0.0 if detection.hue_label == NEUTRAL else AMBIGUOUS_WEIGHT
+    return hits / (detection.area - float(shadow.sum()) + floor + weight * ambiguous)
 
 
 def _softmax(scores: np.ndarray, temperature: float) -> np.ndarray:

@@ -33,6 +33,7 @@ from sklearn.linear_model import LogisticRegression
 from perception.attributes import (
     AMBIGUOUS_WEIGHT,
     COLOR_TEMPERATURE,
+    HUELESS_AMBIGUOUS_WEIGHT,
     SHAPE_TEMPERATURE,
     color_of_votes,
     color_probabilities,
@@ -178,12 +179,14 @@ def diagnose(rows: list[dict]) -> None:
 
 
 def recorded_shape_overlaps(row: dict) -> dict[str, float]:
-    """Mean shape overlap per kind (perception.attributes.shape_overlap at the shipped AMBIGUOUS_WEIGHT) from the
-    silhouette counts bench.attribute_samples recorded; the recorded fit overlaps where a kind has no counts."""
+    """Mean shape overlap per kind (perception.attributes.shape_overlap at the shipped weights of shadow-like
+    pixels: a track voted grey takes the hue-less one) from the silhouette counts bench.attribute_samples
+    recorded; the recorded fit overlaps where a kind has no counts."""
     counts = row.get("shape_counts") or {}
     if not all(counts.get(kind) for kind in SHAPE_KINDS):
         return mean_overlaps(row["shape_scores"])
-    return {kind: float(np.mean([hits / (area + floor + AMBIGUOUS_WEIGHT * ambiguous) for hits, floor, ambiguous, _, area in counts[kind]]))
+    weight = HUELESS_AMBIGUOUS_WEIGHT if color_of_votes(np.asarray(row["color_votes"])) == "gray" else AMBIGUOUS_WEIGHT
+    return {kind: float(np.mean([hits / (area + floor + weight * ambiguous) for hits, floor, ambiguous, _, area in counts[kind]]))
             for kind in SHAPE_KINDS}
 
 

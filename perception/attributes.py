@@ -33,7 +33,8 @@ from world.types import COLORS, MATERIALS, SHAPE_KINDS, Camera
 # the material model (MuJoCo tune looks seed 7101 scenes 0-19 and POV-Ray dev seed 7505 scenes 0-11, 206 tracklets
 # matched to an object; `python -m bench.train_attributes calibrate`, docs/perception.md "Attribute beliefs").
 # Colour: fitted 0.154 on both renderers, the tune-only 0.16 kept (log loss 0.154 tune, 0.290 POV-Ray dev).
-AMBIGUOUS_WEIGHT = 0.25  # shadow-like silhouette pixels count this much against a primitive's shape (shape_overlap)
+AMBIGUOUS_WEIGHT = 0.25  # shadow-like silhouette pixels count this much against a primitive's shape (shape_overlap) ...
+HUELESS_AMBIGUOUS_WEIGHT = 0.0  # ... and this much for a grey segment, whose lit faces are shadow-like themselves
 COLOR_TEMPERATURE = 0.16  # on pixel shares in [0, 1]
 SHAPE_TEMPERATURE = 0.049  # on mean shape overlaps in [0, 1] (shape_overlap; log loss 0.285 tune, 0.545 POV-Ray dev)
 
@@ -75,7 +76,7 @@ def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: D
     """J_shape = |S & D| / (|D| + |S & floor| + AMBIGUOUS_WEIGHT |S & ambiguous|) of the primitive's silhouette S
     at its fitted pose and the detection D (labels: the frame's (H, W) pixel labels), in [0, 1]; the
     detection's own shadow (``shadow``: segment.own_shadow's (area,) mask) counts as ambiguous, not as D.
-    For a grey (hue-less) detection ambiguous pixels weigh 0: its top and lit faces are shadow-like.
+    For a grey (hue-less) detection they weigh HUELESS_AMBIGUOUS_WEIGHT: its top and lit faces are shadow-like.
 
     The fit's own overlap counts shadow-like (ambiguous) pixels neither for nor against, which is right
     for placing a primitive (a grey rubber object is only half certain) but lets a larger primitive win
@@ -93,8 +94,8 @@ def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: D
     floor = float((sil & (region == FLOOR)).sum())
     ambiguous = float((sil & (region == AMBIGUOUS)).sum()) + float((covered & shadow).sum())
     # A hue-less object's lit faces are shadow-like themselves (the floor's chroma, darker than the floor): for
-    # it a shadow-like pixel is as likely its body as its shadow, and counts neither for nor against.
-    weight = 0.0 if detection.hue_label == NEUTRAL else AMBIGUOUS_WEIGHT
+    # it a shadow-like pixel is as likely its body as its shadow.
+    weight = HUELESS_AMBIGUOUS_WEIGHT if detection.hue_label == NEUTRAL else AMBIGUOUS_WEIGHT
     return hits / (detection.area - float(shadow.sum()) + floor + weight * ambiguous)
 
 

@@ -31,10 +31,9 @@ from scipy.optimize import minimize_scalar
 from sklearn.linear_model import LogisticRegression
 
 from perception.attributes import (
-    AMBIGUOUS_WEIGHT,
     COLOR_TEMPERATURE,
-    HUELESS_AMBIGUOUS_WEIGHT,
     SHAPE_TEMPERATURE,
+    ambiguous_weight,
     color_of_votes,
     color_probabilities,
     shape_probabilities,
@@ -185,7 +184,7 @@ def recorded_shape_overlaps(row: dict) -> dict[str, float]:
     counts = row.get("shape_counts") or {}
     if not all(counts.get(kind) for kind in SHAPE_KINDS):
         return mean_overlaps(row["shape_scores"])
-    weight = HUELESS_AMBIGUOUS_WEIGHT if color_of_votes(np.asarray(row["color_votes"])) == "gray" else AMBIGUOUS_WEIGHT
+    weight = ambiguous_weight(color_of_votes(np.asarray(row["color_votes"])) == "gray")
     return {kind: float(np.mean([hits / (area + floor + weight * ambiguous) for hits, floor, ambiguous, _, area in counts[kind]]))
             for kind in SHAPE_KINDS}
 

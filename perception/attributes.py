@@ -76,7 +76,7 @@ def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: D
     """J_shape = |S & D| / (|D| + |S & floor| + AMBIGUOUS_WEIGHT |S & ambiguous|) of the primitive's silhouette S
     at its fitted pose and the detection D (labels: the frame's (H, W) pixel labels), in [0, 1]; the
     detection's own shadow (``shadow``: segment.own_shadow's (area,) mask) counts as ambiguous, not as D.
-    For a grey (hue-less) detection they weigh HUELESS_AMBIGUOUS_WEIGHT: its top and lit faces are shadow-like.
+    For a grey (hue-less) detection they weigh HUELESS_AMBIGUOUS_WEIGHT (ambiguous_weight): its lit faces are shadow-like.
 
     The fit's own overlap counts shadow-like (ambiguous) pixels neither for nor against, which is right
     for placing a primitive (a grey rubber object is only half certain) but lets a larger primitive win
@@ -93,10 +93,14 @@ def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: D
     hits = float((covered & ~shadow).sum())
     floor = float((sil & (region == FLOOR)).sum())
     ambiguous = float((sil & (region == AMBIGUOUS)).sum()) + float((covered & shadow).sum())
-    # A hue-less object's lit faces are shadow-like themselves (the floor's chroma, darker than the floor): for
-    # it a shadow-like pixel is as likely its body as its shadow.
-    weight = HUELESS_AMBIGUOUS_WEIGHT if detection.hue_label == NEUTRAL else AMBIGUOUS_WEIGHT
-    return hits / (detection.area - float(shadow.sum()) + floor + weight * ambiguous)
+    return hits / (detection.area - float(shadow.sum()) + floor + ambiguous_weight(detection.hue_label == NEUTRAL) * ambiguous)
+
+
+def ambiguous_weight(hueless: bool) -> float:
+    """Weight of a shadow-like silhouette pixel against a primitive in the shape overlap (shape_overlap). A
+    hue-less object's lit faces are shadow-like themselves (the floor's chroma, darker than the floor): for it
+    such a pixel is as likely its body as its shadow."""
+    return HUELESS_AMBIGUOUS_WEIGHT if hueless else AMBIGUOUS_WEIGHT
 
 
 def _softmax(scores: np.ndarray, temperature: float) -> np.ndarray:
@@ -128,4 +132,4 @@ def material_probabilities(metal_probability: float, temperature: float = 1.0) -
     return {name: (metal if name == "metal" else 1.0 - metal) for name in MATERIALS}
 
 
-__all__ = ["color_of", "color_of_votes", "color_votes", "color_probabilities", "shape_probabilities", "material_probabilities", "material_of", "shape_overlap", "NEUTRAL"]
+__all__ = ["ambiguous_weight", "color_of", "color_of_votes", "color_votes", "color_probabilities", "shape_probabilities", "material_probabilities", "material_of", "shape_overlap", "NEUTRAL"]

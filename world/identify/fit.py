@@ -34,7 +34,7 @@ from world.identify.jacobian import SecantJacobian
 from world.identify.materials import MaterialRevision, REPORT_CHANGE, prior_mass, revise_materials
 from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, late_departure, robust_residuals, tail_state
 from world.identify.segments import (MIN_REST_SAMPLES, CandidateCollision, contact_episode_starts, find_candidate_collisions,
-                                     precise_tracks, unexplained_start)
+                                     precise_tracks, seen_touching, unexplained_start)
 from world.observations import ObjectTrack, Observations
 from world.rollout import footprint_of, simulate
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frames_in
@@ -958,11 +958,12 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
     world = replace(world, provenance=provenance, anchor=anchor, observed_collisions=observed)
     precise = sorted(precise_ids & {t.id for t in usable})
     decided = frozenset((a, b) for i, a in enumerate(precise) for b in precise[i + 1 :])
-    return with_replayed_collisions(world, config.simulator, decided), report
+    return with_replayed_collisions(world, config.simulator, decided, observations), report
 
 
 def with_replayed_collisions(
     world: World, simulator: Callable[..., object] | None = None, decided_pairs: frozenset[tuple[int, int]] = frozenset(),
+    observations: Observations | None = None,
 ) -> World:
     """The world with its fitted replay's collisions in the video added to ``observed_collisions``.
 
@@ -972,17 +973,28 @@ def with_replayed_collisions(
     one within the contact-episode gap is added at the replay's frame, unless
     the pair is in ``decided_pairs`` (sorted ids): two precise tracks whose
     touches the track analysis saw by geometry (segments.precise_tracks), where
-    a replayed collision the video does not show is the fit's error.
+    a replayed collision the video does not show is the fit's error. With
+    ``observations`` (the tracks the world was fitted to), a replayed collision
+    is added only where the pair's tracks show the two touching
+    (segments.seen_touching): a replayed contact of bodies the video shows
+    apart, or does not show, is the fit's error too (a misplaced perceived
+    track, a fragment track the fit moved onto a neighbour).
     """
     replay = (simulator or simulate)(world, (), max(world.observed_frames, 1))
     gap = frames_in(CONTACT_EPISODE_GAP_SECONDS, world.fps)
     recorded = list(world.observed_collisions or ())
+    tracks = {t.id: t for t in observations.objects} if observations is not None else None
+
+    def shown(a: int, b: int, frame: int) -> bool:
+        return tracks is None or (a in tracks and b in tracks and seen_touching(tracks[a], tracks[b], frame))
+
     added = [
         (min(e.bodies), max(e.bodies), e.frame)
         for e in replay.events
         if e.kind == "collision" and e.frame < world.observed_frames
         and tuple(sorted(e.bodies)) not in decided_pairs
         and not any((a, b) == (min(e.bodies), max(e.bodies)) and abs(frame - e.frame) <= gap for a, b, frame in recorded)
+        and shown(*e.bodies, e.frame)
     ]
     return replace(world, observed_collisions=tuple(recorded + added)) if added else world
 

@@ -221,6 +221,12 @@ def _gap(track: ObjectTrack, other: ObjectTrack, frame: int) -> float:
     return best
 
 
+def seen_touching(track: ObjectTrack, other: ObjectTrack, frame: int) -> bool:
+    """The two tracks show their bodies touching near ``frame``: bounding circles within CONTACT_MARGIN on a
+    frame within +-2 of it where both are seen (``_gap``)."""
+    return _gap(track, other, frame) <= CONTACT_MARGIN
+
+
 def _position_at(track: ObjectTrack, frame: int) -> np.ndarray | None:
     """(2,) m: the observed position at ``frame``, or the straight line between the observed
     samples around it when at most MAX_BRIDGED_GAP frames are missing there; None otherwise."""

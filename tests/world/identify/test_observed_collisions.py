@@ -21,7 +21,7 @@ from synth.scene import ObjectSpec, SceneSpec, sample_camera
 from synth.simulate import simulate as simulate_in_mujoco
 from world.identify.fit import identify, with_replayed_collisions
 from world.identify.segments import MOVING_STEP, find_candidate_collisions, precise_tracks, touch_events
-from world.observations import Observations, default_shape
+from world.observations import ObjectTrack, Observations, default_shape
 from world.rollout import simulate
 from world.types import Body, BodyState, World
 
@@ -140,16 +140,58 @@ def test_a_track_seen_on_too_few_frames_to_judge_is_not_precise(scene):
     assert len(world.bodies) == len(observations.objects)
 
 
-def test_the_replay_adds_nothing_to_a_pair_geometry_decided():
+def _hit_at_rest() -> World:
+    """A cylinder sliding into a resting one: one collision in 60 frames."""
     shape = default_shape("cylinder")
-    world = World(
+    return World(
         (Body(0, shape, BodyState((-1.0, 0.0, shape.rest_height), (2.0, 0.0, 0.0)), friction=0.1, color="red"),
          Body(1, shape, BodyState((0.0, 0.0, shape.rest_height)), friction=0.1, color="blue")),
         observed_frames=60, observed_collisions=(),
     )
+
+
+def _tracks(world: World, shift_of_body_1: float = 0.0, unseen_of_body_1: slice = slice(0, 0)) -> Observations:
+    """Observations of the world's replay, body 1's track moved ``shift_of_body_1`` m along y and unseen on
+    the frames ``unseen_of_body_1``."""
+    rollout = simulate(world, (), world.observed_frames)
+    frames = np.arange(world.observed_frames)
+    tracks = []
+    for k, body in enumerate(world.bodies):
+        positions = rollout.positions[:, k].copy()
+        weights = np.ones(frames.size)
+        if body.id == 1:
+            positions[:, 1] += shift_of_body_1
+            weights[unseen_of_body_1] = 0.0
+        tracks.append(ObjectTrack(body.id, body.shape, frames, positions, rollout.yaw[:, k], np.ones(frames.size, bool),
+                                  weights, body.color, body.material))
+    return Observations(tuple(tracks), world.fps, world.observed_frames)
+
+
+def test_the_replay_adds_nothing_to_a_pair_geometry_decided():
+    world = _hit_at_rest()
     replayed = [(0, 1, e.frame) for e in simulate(world, (), 60).events if e.kind == "collision"]
     assert len(replayed) == 1
     # Undecided: the replay's collision is added (a light touch the change points missed) ...
     assert with_replayed_collisions(world).observed_collisions == tuple(replayed)
     # ... decided by geometry (two precise tracks saw no touch): the video is right, nothing is added.
     assert with_replayed_collisions(world, decided_pairs=frozenset({(0, 1)})).observed_collisions == ()
+
+
+def test_the_replay_adds_only_contacts_the_tracks_show():
+    """A replayed collision joins the record only where the tracks the world was fitted to show the pair
+    touching: perceived tracks 10 cm apart, or one of them unseen around the contact, make it the fit's error."""
+    world = _hit_at_rest()
+    replayed = [(0, 1, e.frame) for e in simulate(world, (), 60).events if e.kind == "collision"]
+    assert len(replayed) == 1
+    frame = replayed[0][2]
+    assert with_replayed_collisions(world, observations=_tracks(world)).observed_collisions == tuple(replayed)
+    # 5 cm sideways (perception's error at a contact) is still a touch; 30 cm sideways (bounding circles 10 cm
+    # apart) is not.
+    assert with_replayed_collisions(world, observations=_tracks(world, 0.05)).observed_collisions == tuple(replayed)
+    assert with_replayed_collisions(world, observations=_tracks(world, 0.3)).observed_collisions == ()
+    # A track lost for the 5 frames around the contact (more than the 3 frames bridged): not shown, not added.
+    lost = _tracks(world, unseen_of_body_1=slice(frame - 2, frame + 3))
+    assert with_replayed_collisions(world, observations=lost).observed_collisions == ()
+    # A body of the world without a track of its own: nothing shows it touching either.
+    alone = replace(_tracks(world), objects=_tracks(world).objects[:1])
+    assert with_replayed_collisions(world, observations=alone).observed_collisions == ()

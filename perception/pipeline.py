@@ -40,6 +40,7 @@ MAX_ATTRIBUTE_FRAMES = 6  # isolated frames used to decide shape (a fit per fram
 MIN_CUT_PIECE_FRAMES = 10  # frames: a shorter piece of a cut track that joins nothing and never touches the border is dropped
 INTERLEAVE_FRAMES = 3  # a sample of the other tracklet this close in time on both sides: the two take turns on one object
 DUPLICATE_SIZES = 1.5  # tracklets closer than this many object sizes (radii) on most common frames are one object (see _close_frames)
+STRAY_SHARE = 0.5  # share of its frames a track may spend inside longer tracks (see _without_strays) and still be an object
 KEEP_SHARE = 0.5  # on a frame two joined tracklets both hold, the better supported one's sample stays unless it weighs less than this share of the other's
 MAX_APPEARANCE_FRAMES = 16  # isolated frames used to decide colour / material (cheap per frame)
 MIN_SHAPE_SCORE = 0.4  # mean silhouette overlap below which a track is not an object
@@ -207,7 +208,7 @@ class PrimitiveLifter:
         alone = {t.id: len(t.frames) for t in lifted if states[t.id].cut and len(t.frames) < MIN_CUT_PIECE_FRAMES
                  and not _at_border(states[t.id])}
         associated = [t for t in associated if alone.get(t.id) != len(t.frames)]
-        associated = _without_shadows(associated, appearance, self.size)
+        associated = _without_strays(_without_shadows(associated, appearance, self.size), self.size)
         return _renumber(_untangle_contacts(associated, self.size, appearance))
 
 
@@ -813,6 +814,26 @@ def _without_shadows(tracks: list[LiftedTrack], appearance: dict[int, np.ndarray
                if other_follower is not follower and other_caster is not caster):
             shadows.add(follower.id)
     return [t for t in tracks if t.id not in shadows]
+
+
+def _without_strays(tracks: list[LiftedTrack], size: float) -> list[LiftedTrack]:
+    """The tracks less those that lie inside other objects most of their life: a track whose centre is within
+    DUPLICATE_SIZES object sizes of some longer track on more than STRAY_SHARE of its frames. Two solid objects'
+    centres are at least 2 sizes apart, so such a track is pieces of its neighbours (a dark face, a shadow or a
+    reflection that the tracker carried from one touching object to the next); no single neighbour holds it on
+    most common frames (_close_frames), so association kept it as an object of its own."""
+    strays = set()
+    for track in tracks:
+        inside = np.zeros(track.frames.size, dtype=bool)
+        for other in tracks:
+            if other is track or other.frames.size <= track.frames.size:
+                continue
+            _, mine, theirs = np.intersect1d(track.frames, other.frames, return_indices=True)
+            close = np.linalg.norm(track.positions[mine, :2] - other.positions[theirs, :2], axis=1) < DUPLICATE_SIZES * size
+            inside[mine[close]] = True
+        if inside.mean() > STRAY_SHARE:
+            strays.add(track.id)
+    return [t for t in tracks if t.id not in strays]
 
 
 def _renumber(lifted: list[LiftedTrack]) -> list[LiftedTrack]:

@@ -6,7 +6,7 @@ import numpy as np
 
 from dataclasses import replace
 
-from perception.pipeline import _associate, _jump_cuts, _palette_appearance
+from perception.pipeline import _associate, _jump_cuts, _palette_appearance, _without_strays
 from perception.types import Attributes, Detection, LiftedTrack, TrackState
 
 SIZE = 0.2
@@ -231,3 +231,22 @@ def test_a_jump_over_one_transition_sample_is_cut_before_it():
     struck = replace(fast, frames=np.concatenate([slow.frames, fast.frames]), positions=np.concatenate([slow.positions, fast.positions]),
                      yaw=np.full(60, np.nan), visible=np.ones(60, bool), weights=np.ones(60))
     assert _jump_cuts(struck, _state(struck)) == []
+
+
+def test_a_track_inside_its_neighbours_most_of_its_life_is_not_an_object():
+    """Two objects resting 3 sizes apart (the gap between them one size wide) for 60 frames; a grey tracklet
+    sits on the first for 10 frames and on the second for the next 10 (a dark face the tracker carried from one
+    to the other): inside longer tracks on all of its frames, but on half of them for each, so association
+    keeps it; it is no object. A third object resting against the first (centres 2.1 sizes apart, touching)
+    stays, and so does a track that comes within 1.5 sizes of the first on only 5 of its 20 frames (misfits
+    at a contact)."""
+    first = _tracklet(0, range(0, 60), (0.0, 0.0), (0.0, 0.0))
+    second = _tracklet(1, range(0, 60), (3 * SIZE, 0.0), (0.0, 0.0), color="blue")
+    hopper = replace(_tracklet(2, range(20, 40), (0.0, 0.05), (0.0, 0.0), color="gray"))
+    hopper = replace(hopper, positions=np.where((hopper.frames < 30)[:, None], hopper.positions,
+                                                hopper.positions + np.array([3 * SIZE, 0.0, 0.0])))
+    touching = _tracklet(3, range(0, 50), (0.0, 2.1 * SIZE), (0.0, 0.0), color="green")
+    passing = _tracklet(4, range(20, 40), (-0.77, -0.25), (0.06, 0.0), color="yellow")  # inside the first on frames 31-35
+    kept = _without_strays([first, second, hopper, touching, passing], SIZE)
+    assert [t.id for t in kept] == [0, 1, 3, 4]
+    assert len(_associate([first, second, hopper], SIZE)) == 3  # association alone keeps the hopper

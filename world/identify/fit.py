@@ -953,19 +953,21 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
     provenance = {"fit": report.to_dict(), "source": dict(observations.source)}
     precise_ids = precise_tracks(observations)
     episodes = contact_episode_starts(candidates, observations, precise_ids)
-    observed = tuple(sorted({(min(c.bodies), max(c.bodies), c.frame) for c in episodes
-                             if 0 <= c.frame < observations.num_frames}, key=lambda c: (c[2], c[0], c[1])))
+    inside = [c for c in episodes if 0 <= c.frame < observations.num_frames]
+    observed = tuple(sorted({(min(c.bodies), max(c.bodies), c.frame) for c in inside}, key=lambda c: (c[2], c[0], c[1])))
+    unconfirmed = frozenset((min(c.bodies), max(c.bodies), c.frame) for c in inside if not c.corroborated)
     world = replace(world, provenance=provenance, anchor=anchor, observed_collisions=observed)
     precise = sorted(precise_ids & {t.id for t in usable})
     decided = frozenset((a, b) for i, a in enumerate(precise) for b in precise[i + 1 :])
-    return with_replayed_collisions(world, config.simulator, decided, observations), report
+    return with_replayed_collisions(world, config.simulator, decided, observations, unconfirmed), report
 
 
 def with_replayed_collisions(
     world: World, simulator: Callable[..., object] | None = None, decided_pairs: frozenset[tuple[int, int]] = frozenset(),
-    observations: Observations | None = None,
+    observations: Observations | None = None, unconfirmed: frozenset[tuple[int, int, int]] = frozenset(),
 ) -> World:
-    """The world with its fitted replay's collisions in the video added to ``observed_collisions``.
+    """The world with its fitted replay's collisions in the video added to ``observed_collisions``, and its
+    unconfirmed ones the replay does not make left out.
 
     The track analysis (stage 1) misses a weak contact (a light touch of a
     heavy body); the fitted replay, which must explain every track, still
@@ -979,24 +981,28 @@ def with_replayed_collisions(
     (segments.seen_touching): a replayed contact of bodies the video shows
     apart, or does not show, is the fit's error too (a misplaced perceived
     track, a fragment track the fit moved onto a neighbour).
+
+    ``unconfirmed``: recorded collisions (a, b, frame), a < b, whose evidence
+    is one-sided (segments.CandidateCollision.corroborated): kept only when
+    the replay makes the pair collide within the contact-episode gap.
     """
     replay = (simulator or simulate)(world, (), max(world.observed_frames, 1))
     gap = frames_in(CONTACT_EPISODE_GAP_SECONDS, world.fps)
-    recorded = list(world.observed_collisions or ())
+    replayed = [(min(e.bodies), max(e.bodies), e.frame) for e in replay.events
+                if e.kind == "collision" and e.frame < world.observed_frames]
+
+    def near(event: tuple[int, int, int], events: Sequence[tuple[int, int, int]]) -> bool:
+        return any(other[:2] == event[:2] and abs(other[2] - event[2]) <= gap for other in events)
+
+    given = tuple(world.observed_collisions or ())
+    recorded = [c for c in given if c not in unconfirmed or near(c, replayed)]
     tracks = {t.id: t for t in observations.objects} if observations is not None else None
 
     def shown(a: int, b: int, frame: int) -> bool:
         return tracks is None or (a in tracks and b in tracks and seen_touching(tracks[a], tracks[b], frame))
 
-    added = [
-        (min(e.bodies), max(e.bodies), e.frame)
-        for e in replay.events
-        if e.kind == "collision" and e.frame < world.observed_frames
-        and tuple(sorted(e.bodies)) not in decided_pairs
-        and not any((a, b) == (min(e.bodies), max(e.bodies)) and abs(frame - e.frame) <= gap for a, b, frame in recorded)
-        and shown(*e.bodies, e.frame)
-    ]
-    return replace(world, observed_collisions=tuple(recorded + added)) if added else world
+    added = [c for c in replayed if (c[0], c[1]) not in decided_pairs and not near(c, recorded) and shown(*c)]
+    return replace(world, observed_collisions=tuple(recorded + added)) if added or len(recorded) < len(given) else world
 
 
 def _observed_tracks(observations: Observations) -> tuple[list[ObjectTrack], dict[int, list[str]]]:

@@ -86,6 +86,12 @@ class CandidateCollision:
     in the order of ``bodies``; a row of NaN where that side was not seen
     (e.g. a body that enters the view right at the contact).
     normal: (2,) unit vector from bodies[0] to bodies[1] at contact.
+    corroborated: False when one track alone shows the impulse (a change point
+    of one body, its partner the closest touching body with no change point
+    of its own and no pair event) or the pair's closing speed alone does (a
+    pair event, no change point): weak evidence, which the record of
+    observed collisions keeps only where the fitted replay makes the pair
+    collide (fit.with_replayed_collisions).
     """
 
     bodies: tuple[int, int]
@@ -93,6 +99,7 @@ class CandidateCollision:
     pre: np.ndarray
     post: np.ndarray
     normal: np.ndarray
+    corroborated: bool = True
 
     @property
     def delta_v(self) -> np.ndarray:
@@ -477,18 +484,23 @@ def find_candidate_collisions(
     precise_ids = precise_tracks(observations)
     precise = {t.id: t.id in precise_ids for t in observations.objects}
     points = {t.id: change_points(t, fps) for t in observations.objects}
-    found: dict[tuple[tuple[int, int], int], None] = {}
+    # (pair, frame) -> what shows the collision: a touch of precise tracks, both bodies' change points,
+    # one body's change point (the partner the closest touching body), the pair's closing speed.
+    found: dict[tuple[tuple[int, int], int], set[str]] = {}
 
-    def add(pair: tuple[int, int], frame: int) -> None:
-        if not any(p == pair and abs(f - frame) < MIN_SEPARATION for p, f in found):
-            found[(pair, frame)] = None
+    def add(pair: tuple[int, int], frame: int, evidence: str) -> None:
+        for (p, f), kinds in found.items():
+            if p == pair and abs(f - frame) < MIN_SEPARATION:
+                kinds.add(evidence)  # one event: its evidence adds up
+                return
+        found[(pair, frame)] = {evidence}
 
     ids = sorted(tracks)
     for i, first in enumerate(ids):
         for second in ids[i + 1 :]:
             if precise[first] and precise[second]:
                 for frame in touch_events(tracks[first], tracks[second], observations.num_frames, fps):
-                    add((first, second), frame)
+                    add((first, second), frame, "touch")
     for body, frames in points.items():
         track = tracks[body]
         for frame in frames:
@@ -505,14 +517,14 @@ def find_candidate_collisions(
             felt = [o for o in touching if any(abs(f - frame) < MIN_SEPARATION for f in points[o])]
             partners = felt or ([min(touching, key=touching.get)] if touching else [])
             for other_id in partners:
-                add((min(body, other_id), max(body, other_id)), frame)
+                add((min(body, other_id), max(body, other_id)), frame, "both" if felt else "one")
     for i, first in enumerate(ids):
         for second in ids[i + 1 :]:
             if not (precise[first] and precise[second]):
                 for frame in approach_events(tracks[first], tracks[second], fps):
-                    add((first, second), frame)
+                    add((first, second), frame, "pair")
     candidates = []
-    for (pair, frame), _ in sorted(found.items(), key=lambda item: (item[0][1], item[0][0])):
+    for (pair, frame), evidence in sorted(found.items(), key=lambda item: (item[0][1], item[0][0])):
         pre, post = [], []
         for body in pair:
             # Each side's window stops at the body's neighbouring change points.
@@ -527,7 +539,8 @@ def find_candidate_collisions(
             b = tracks[pair[1]].positions[np.argmin(np.abs(tracks[pair[1]].frames - frame)), :2]
         offset = b - a
         normal = offset / max(float(np.hypot(*offset)), 1e-9)
-        candidates.append(CandidateCollision(pair, frame, np.array(pre), np.array(post), normal))
+        corroborated = bool(evidence & {"touch", "both"}) or evidence >= {"one", "pair"}
+        candidates.append(CandidateCollision(pair, frame, np.array(pre), np.array(post), normal, corroborated))
     return candidates
 
 

@@ -195,3 +195,19 @@ def test_the_replay_adds_only_contacts_the_tracks_show():
     # A body of the world without a track of its own: nothing shows it touching either.
     alone = replace(_tracks(world), objects=_tracks(world).objects[:1])
     assert with_replayed_collisions(world, observations=alone).observed_collisions == ()
+
+
+def test_an_unconfirmed_collision_stays_where_the_replay_makes_it():
+    """A recorded collision with one-sided evidence (segments.CandidateCollision.corroborated false) stays
+    when the fitted replay makes the pair collide within the contact-episode gap, and leaves the record when
+    it does not; a corroborated one stays either way."""
+    world = _hit_at_rest()
+    ((_, _, frame),) = [(0, 1, e.frame) for e in simulate(world, (), 60).events if e.kind == "collision"]
+    made, far, seen = (0, 1, frame + 2), (0, 1, frame + 30), (0, 1, frame + 45)
+    kept = with_replayed_collisions(replace(world, observed_collisions=(made,)), unconfirmed=frozenset({made}))
+    assert kept.observed_collisions == (made,)
+    # 30 frames after the replay's only collision: dropped, and the replay's own collision is recorded instead.
+    dropped = with_replayed_collisions(replace(world, observed_collisions=(far,)), unconfirmed=frozenset({far}))
+    assert dropped.observed_collisions == ((0, 1, frame),)
+    both = with_replayed_collisions(replace(world, observed_collisions=(made, seen)), unconfirmed=frozenset({made}))
+    assert both.observed_collisions == (made, seen)

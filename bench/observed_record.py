@@ -5,7 +5,10 @@
 For every ``world_XXXXX.json`` in SRC_DIR (a ``bench_qa --cache`` directory):
 the fit report's ``collisions_used`` inside the video (identification's stage 1),
 then ``world.identify.fit.with_replayed_collisions`` — the last two steps of
-``identify``, whose fit is otherwise unchanged with spheres sliding (the default).
+``identify``, whose fit is otherwise unchanged with spheres sliding (the default),
+less the checks against the tracks (a cached world does not carry them): identify
+also leaves out replayed collisions the tracks do not show and one-sided
+candidates the replay does not make, which matters for perceived tracks only.
 Writes the worlds and their ``build_XXXXX.json`` to DST_DIR, so bench_qa and
 bench_identify --worlds score the new record without refitting.
 """

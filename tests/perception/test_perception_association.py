@@ -242,7 +242,7 @@ def test_a_track_inside_its_neighbours_most_of_its_life_is_not_an_object():
     at a contact)."""
     first = _tracklet(0, range(0, 60), (0.0, 0.0), (0.0, 0.0))
     second = _tracklet(1, range(0, 60), (3 * SIZE, 0.0), (0.0, 0.0), color="blue")
-    hopper = replace(_tracklet(2, range(20, 40), (0.0, 0.05), (0.0, 0.0), color="gray"))
+    hopper = _tracklet(2, range(20, 40), (0.0, 0.05), (0.0, 0.0), color="gray")
     hopper = replace(hopper, positions=np.where((hopper.frames < 30)[:, None], hopper.positions,
                                                 hopper.positions + np.array([3 * SIZE, 0.0, 0.0])))
     touching = _tracklet(3, range(0, 50), (0.0, 2.1 * SIZE), (0.0, 0.0), color="green")

@@ -203,11 +203,12 @@ def test_an_unconfirmed_collision_stays_where_the_replay_makes_it():
     it does not; a corroborated one stays either way."""
     world = _hit_at_rest()
     ((_, _, frame),) = [(0, 1, e.frame) for e in simulate(world, (), 60).events if e.kind == "collision"]
-    made, far, seen = (0, 1, frame + 2), (0, 1, frame + 30), (0, 1, frame + 45)
+    made, far, confirmed = (0, 1, frame + 2), (0, 1, frame + 30), (0, 1, frame + 45)
     kept = with_replayed_collisions(replace(world, observed_collisions=(made,)), unconfirmed=frozenset({made}))
     assert kept.observed_collisions == (made,)
     # 30 frames after the replay's only collision: dropped, and the replay's own collision is recorded instead.
     dropped = with_replayed_collisions(replace(world, observed_collisions=(far,)), unconfirmed=frozenset({far}))
     assert dropped.observed_collisions == ((0, 1, frame),)
-    both = with_replayed_collisions(replace(world, observed_collisions=(made, seen)), unconfirmed=frozenset({made}))
-    assert both.observed_collisions == (made, seen)
+    # A corroborated one 45 frames after it stays.
+    both = with_replayed_collisions(replace(world, observed_collisions=(made, confirmed)), unconfirmed=frozenset({made}))
+    assert both.observed_collisions == (made, confirmed)

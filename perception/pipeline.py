@@ -542,11 +542,17 @@ def _close_frames(a: LiftedTrack, b: LiftedTrack, size: float) -> int:
     closer is one object tracked twice; 1.5 leaves half a radius for the fits of touching objects and takes
     pieces whose own fit lies up to 1.5 radii off (a metal's mirrored or lit half, docs/benchmarks.md
     "Duplicates within one and a half radii")."""
-    common, ia, ib = np.intersect1d(a.frames, b.frames, return_indices=True)
-    if common.size == 0:
+    mine, close = _close_on_common_frames(a, b, size)
+    if mine.size == 0:
         return _interleaved_close_frames(a, b, size)
-    close = np.linalg.norm(a.positions[ia, :2] - b.positions[ib, :2], axis=1) < DUPLICATE_SIZES * size
     return int(close.sum()) if close.mean() > 0.5 else 0
+
+
+def _close_on_common_frames(a: LiftedTrack, b: LiftedTrack, size: float) -> tuple[np.ndarray, np.ndarray]:
+    """(indices into ``a``'s samples of the frames both tracklets hold, (same length,) bool: their centres are
+    closer than DUPLICATE_SIZES object sizes there)."""
+    _, mine, theirs = np.intersect1d(a.frames, b.frames, return_indices=True)
+    return mine, np.linalg.norm(a.positions[mine, :2] - b.positions[theirs, :2], axis=1) < DUPLICATE_SIZES * size
 
 
 def _interleaved_close_frames(a: LiftedTrack, b: LiftedTrack, size: float) -> int:
@@ -828,8 +834,7 @@ def _without_strays(tracks: list[LiftedTrack], size: float) -> list[LiftedTrack]
         for other in tracks:
             if other is track or other.frames.size <= track.frames.size:
                 continue
-            _, mine, theirs = np.intersect1d(track.frames, other.frames, return_indices=True)
-            close = np.linalg.norm(track.positions[mine, :2] - other.positions[theirs, :2], axis=1) < DUPLICATE_SIZES * size
+            mine, close = _close_on_common_frames(track, other, size)
             inside[mine[close]] = True
         if inside.mean() > STRAY_SHARE:
             strays.add(track.id)

@@ -1002,7 +1002,8 @@ def with_replayed_collisions(
         return tracks is None or (a in tracks and b in tracks and seen_touching(tracks[a], tracks[b], frame))
 
     added = [c for c in replayed if (c[0], c[1]) not in decided_pairs and not near(c, recorded) and shown(*c)]
-    return replace(world, observed_collisions=tuple(recorded + added)) if added or len(recorded) < len(given) else world
+    record = tuple(recorded + added)
+    return world if record == given else replace(world, observed_collisions=record)
 
 
 def _observed_tracks(observations: Observations) -> tuple[list[ObjectTrack], dict[int, list[str]]]:

@@ -41,6 +41,7 @@ MAX_FRICTION_DECELERATION = 1.2
 # of two touching objects for a frame or two right at their contact (the two
 # read as one segment), exactly where the change point is.
 MAX_BRIDGED_GAP = 3
+REACH_FRAMES = 6  # frames from a partner's nearest sample over which it may have met a body unseen (_reachable_gap)
 # A pair closing in at least this fast (m/s, along the line between their
 # centres) whose closing speed then drops by MIN_DELTA_V while they touch
 # collided, even when neither track alone shows a clear change point (noisy
@@ -225,6 +226,36 @@ def _gap(track: ObjectTrack, other: ObjectTrack, frame: int) -> float:
         if here is not None and there is not None:
             gap = float(np.hypot(*(there - here))) - contact_radius(track) - contact_radius(other)
             best = min(best, gap)
+    return best
+
+
+def _courses_into(track: ObjectTrack, frame: int) -> list[np.ndarray]:
+    """(2,) m positions of a body at ``frame`` where its track does not show it: its straight course
+    into the hole (from the last two samples before, at most REACH_FRAMES back) and out of it (from the
+    first two after, backwards); a body's course is straight up to the contact and from it on."""
+    frames = track.frames[track.observed]
+    positions = track.positions[track.observed, :2]
+    index = int(np.searchsorted(frames, frame))
+    courses = []
+    for last, previous in ((index - 1, index - 2), (index, index + 1)):
+        if 0 <= min(last, previous) and max(last, previous) < frames.size and abs(int(frames[last]) - frame) <= REACH_FRAMES:
+            velocity = (positions[last] - positions[previous]) / (frames[last] - frames[previous])  # m per frame
+            courses.append(positions[last] + velocity * (frame - frames[last]))
+    return courses
+
+
+def _reachable_gap(track: ObjectTrack, other: ObjectTrack, frame: int) -> float:
+    """``_gap``, where a side the track does not show at a probe frame (its segment lost in the contact:
+    more than MAX_BRIDGED_GAP frames missing) stands where its course into or out of the hole puts it."""
+    best = _gap(track, other, frame)
+    for probe in range(frame - 2, frame + 3):
+        sides = []
+        for body in (track, other):
+            seen = _position_at(body, probe)
+            sides.append([seen] if seen is not None else _courses_into(body, probe))
+        for here in sides[0]:
+            for there in sides[1]:
+                best = min(best, float(np.hypot(*(there - here))) - contact_radius(track) - contact_radius(other))
     return best
 
 
@@ -508,7 +539,7 @@ def find_candidate_collisions(
                 other_id: gap
                 for other_id, other in tracks.items()
                 if other_id != body and not (precise[body] and precise[other_id])
-                and (gap := _gap(track, other, frame)) <= CONTACT_MARGIN
+                and (gap := _reachable_gap(track, other, frame)) <= CONTACT_MARGIN
                 and not _one_object_twice(track, other, frame)
             }
             # Partners that felt the impulse too (a change point of their

@@ -41,7 +41,7 @@ MAX_FRICTION_DECELERATION = 1.2
 # of two touching objects for a frame or two right at their contact (the two
 # read as one segment), exactly where the change point is.
 MAX_BRIDGED_GAP = 3
-REACH_FRAMES = 6  # frames from a partner's nearest sample over which it may have met a body unseen (_reachable_gap)
+REACH_FRAMES = 6  # frames from a partner's nearest sample over which it may have met a body unseen (_gap's unseen_on_course)
 # A pair closing in at least this fast (m/s, along the line between their
 # centres) whose closing speed then drops by MIN_DELTA_V while they touch
 # collided, even when neither track alone shows a clear change point (noisy
@@ -214,18 +214,24 @@ def _one_object_twice(track: ObjectTrack, other: ObjectTrack, frame: int) -> boo
     return float(np.hypot(*(there - here))) < reach
 
 
-def _gap(track: ObjectTrack, other: ObjectTrack, frame: int) -> float:
+def _gap(track: ObjectTrack, other: ObjectTrack, frame: int, *, unseen_on_course: bool = False) -> float:
     """Smallest gap (m) between the two bounding circles within +-2 frames of ``frame``; inf if unseen.
 
     Change points of fast impacts land a frame or two off the contact
     (a body at 4 m/s moves 16 cm a frame), so a short window is searched.
+    unseen_on_course: a side the track does not show at a probe frame (its segment lost in the contact:
+    more than MAX_BRIDGED_GAP frames missing) stands where its straight course into or out of the hole
+    puts it (``_courses_into``), instead of nowhere.
     """
     best = float("inf")
     for probe in range(frame - 2, frame + 3):
-        here, there = _position_at(track, probe), _position_at(other, probe)
-        if here is not None and there is not None:
-            gap = float(np.hypot(*(there - here))) - contact_radius(track) - contact_radius(other)
-            best = min(best, gap)
+        sides = []
+        for body in (track, other):
+            seen = _position_at(body, probe)
+            sides.append([seen] if seen is not None else _courses_into(body, probe) if unseen_on_course else [])
+        for here in sides[0]:
+            for there in sides[1]:
+                best = min(best, float(np.hypot(*(there - here))) - contact_radius(track) - contact_radius(other))
     return best
 
 
@@ -242,21 +248,6 @@ def _courses_into(track: ObjectTrack, frame: int) -> list[np.ndarray]:
             velocity = (positions[last] - positions[previous]) / (frames[last] - frames[previous])  # m per frame
             courses.append(positions[last] + velocity * (frame - frames[last]))
     return courses
-
-
-def _reachable_gap(track: ObjectTrack, other: ObjectTrack, frame: int) -> float:
-    """``_gap``, where a side the track does not show at a probe frame (its segment lost in the contact:
-    more than MAX_BRIDGED_GAP frames missing) stands where its course into or out of the hole puts it."""
-    best = _gap(track, other, frame)
-    for probe in range(frame - 2, frame + 3):
-        sides = []
-        for body in (track, other):
-            seen = _position_at(body, probe)
-            sides.append([seen] if seen is not None else _courses_into(body, probe))
-        for here in sides[0]:
-            for there in sides[1]:
-                best = min(best, float(np.hypot(*(there - here))) - contact_radius(track) - contact_radius(other))
-    return best
 
 
 def seen_touching(track: ObjectTrack, other: ObjectTrack, frame: int) -> bool:
@@ -539,7 +530,7 @@ def find_candidate_collisions(
                 other_id: gap
                 for other_id, other in tracks.items()
                 if other_id != body and not (precise[body] and precise[other_id])
-                and (gap := _reachable_gap(track, other, frame)) <= CONTACT_MARGIN
+                and (gap := _gap(track, other, frame, unseen_on_course=True)) <= CONTACT_MARGIN
                 and not _one_object_twice(track, other, frame)
             }
             # Partners that felt the impulse too (a change point of their

@@ -43,52 +43,56 @@ def _perceived(result, object_ids, kinds, seed, missing: dict[int, range], noise
     return Observations(tuple(tracks), FPS, result.positions.shape[0], None)
 
 
+def _two_bodies(first: ObjectSpec, second: ObjectSpec):
+    """MuJoCo's 50 observed frames of two bodies."""
+    return simulate(SceneSpec(0, CAMERA, (first, second), observed_frames=50, future_frames=0))
+
+
+def _assert_hit_found(result, kinds, seed, lost_body: int, lost: range) -> None:
+    """The pair's candidate within 3 frames of MuJoCo's contact, the track of ``lost_body`` missing the
+    frames ``lost`` (relative to the contact frame)."""
+    (hit,) = [e for e in result.events if e.kind == "collision" and set(e.bodies) == {0, 1}]
+    missing = {lost_body: range(hit.frame + lost.start, hit.frame + lost.stop)}
+    found = [c for c in find_candidate_collisions(_perceived(result, (0, 1), kinds, seed, missing)) if set(c.bodies) == {0, 1}]
+    assert any(abs(c.frame - hit.frame) <= 3 for c in found), f"MuJoCo contact at frame {hit.frame}, candidates {[c.frame for c in found]}"
+
+
+def _passing_apart():
+    """A sphere passing a resting cube 30 cm off (centres 75 cm apart at the closest), no contact in MuJoCo."""
+    result = _two_bodies(_spec(0, "sphere", (-1.2, 0.0), (2.0, 0.0), 20.0), _spec(1, "cube", (0.0, 0.75), (0.0, 0.0), 200.0))
+    assert not [e for e in result.events if e.kind == "collision"]
+    return result
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_a_light_hit_on_a_heavy_body_is_found_through_noise_and_a_lost_contact(seed):
     # A light sphere hits a heavy resting cube: the cube barely moves (no change point of its own) and the
     # sphere's track loses the three frames around the contact, where its change point is.
-    spec = SceneSpec(0, CAMERA, (_spec(0, "sphere", (-1.2, 0.3), (2.0, 0.0), 20.0), _spec(1, "cube", (0.0, 0.3), (0.0, 0.0), 200.0)),
-                     observed_frames=50, future_frames=0)
-    result = simulate(spec)
-    (hit,) = [e for e in result.events if e.kind == "collision" and set(e.bodies) == {0, 1}]
-    observations = _perceived(result, (0, 1), ("sphere", "cube"), seed, {0: range(hit.frame - 1, hit.frame + 2)})
-    found = [c for c in find_candidate_collisions(observations) if set(c.bodies) == {0, 1}]
-    assert any(abs(c.frame - hit.frame) <= 3 for c in found), f"MuJoCo contact at frame {hit.frame}, candidates {[c.frame for c in found]}"
+    result = _two_bodies(_spec(0, "sphere", (-1.2, 0.3), (2.0, 0.0), 20.0), _spec(1, "cube", (0.0, 0.3), (0.0, 0.0), 200.0))
+    _assert_hit_found(result, ("sphere", "cube"), seed, 0, range(-1, 2))
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_a_hit_on_a_body_lost_for_the_whole_contact_is_found(seed):
     # A cube hits a sphere rolling across its path; the sphere's track loses five frames from just before the
     # contact (more than a straight line may bridge): at the cube's change point the sphere is nowhere, and
-    # its own change point lands frames off. Where it was seen last it could reach the cube unseen.
-    spec = SceneSpec(0, CAMERA, (_spec(0, "cube", (-1.2, 0.0), (2.2, 0.0), 60.0), _spec(1, "sphere", (0.15, -0.9), (0.0, 1.4), 50.0)),
-                     observed_frames=50, future_frames=0)
-    result = simulate(spec)
-    (hit,) = [e for e in result.events if e.kind == "collision" and set(e.bodies) == {0, 1}]
-    observations = _perceived(result, (0, 1), ("cube", "sphere"), seed, {1: range(hit.frame - 1, hit.frame + 4)})
-    found = [c for c in find_candidate_collisions(observations) if set(c.bodies) == {0, 1}]
-    assert any(abs(c.frame - hit.frame) <= 3 for c in found), f"MuJoCo contact at frame {hit.frame}, candidates {[c.frame for c in found]}"
+    # its own change point lands frames off. Its straight course into the hole meets the cube.
+    result = _two_bodies(_spec(0, "cube", (-1.2, 0.0), (2.2, 0.0), 60.0), _spec(1, "sphere", (0.15, -0.9), (0.0, 1.4), 50.0))
+    _assert_hit_found(result, ("cube", "sphere"), seed, 1, range(-1, 4))
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_two_noisy_tracks_that_pass_apart_make_no_collision(seed):
     # The same noise on two bodies that come within 30 cm but never touch: no candidate.
-    spec = SceneSpec(0, CAMERA, (_spec(0, "sphere", (-1.2, 0.0), (2.0, 0.0), 20.0), _spec(1, "cube", (0.0, 0.75), (0.0, 0.0), 200.0)),
-                     observed_frames=50, future_frames=0)
-    result = simulate(spec)
-    assert not [e for e in result.events if e.kind == "collision"]
-    observations = _perceived(result, (0, 1), ("sphere", "cube"), seed, {})
+    observations = _perceived(_passing_apart(), (0, 1), ("sphere", "cube"), seed, {})
     assert not find_candidate_collisions(observations)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_a_body_lost_while_it_passes_another_makes_no_collision(seed):
-    # The passing sphere of the test above loses five frames where it is closest to the cube (which a wobble
-    # of the noise may take for a change point): its course through the hole still passes 25 cm off.
-    spec = SceneSpec(0, CAMERA, (_spec(0, "sphere", (-1.2, 0.0), (2.0, 0.0), 20.0), _spec(1, "cube", (0.0, 0.75), (0.0, 0.0), 200.0)),
-                     observed_frames=50, future_frames=0)
-    result = simulate(spec)
-    assert not [e for e in result.events if e.kind == "collision"]
+    # The passing sphere loses five frames where it is closest to the cube (the hole's edges make change
+    # points): its straight course through the hole still passes 25 cm off.
+    result = _passing_apart()
     closest = int(np.argmin(np.linalg.norm(result.positions[:, 0, :2] - result.positions[:, 1, :2], axis=1)))
     observations = _perceived(result, (0, 1), ("sphere", "cube"), seed, {0: range(closest - 2, closest + 3)})
     assert not find_candidate_collisions(observations)

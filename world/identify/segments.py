@@ -236,9 +236,10 @@ def _gap(track: ObjectTrack, other: ObjectTrack, frame: int, *, unseen_on_course
 
 
 def _courses_into(track: ObjectTrack, frame: int) -> list[np.ndarray]:
-    """(2,) m positions of a body at ``frame`` where its track does not show it: its straight course
-    into the hole (from the last two samples before, at most REACH_FRAMES back) and out of it (from the
-    first two after, backwards); a body's course is straight up to the contact and from it on."""
+    """(2,) m positions of a body at ``frame`` where its track does not show it (a hole, or before its first
+    or after its last sample): its straight course into that stretch (from the last two samples before, at
+    most REACH_FRAMES back) and out of it (from the first two after, backwards); a body's course is straight
+    up to the contact and from it on. Empty when neither side has two samples within reach."""
     frames = track.frames[track.observed]
     positions = track.positions[track.observed, :2]
     index = int(np.searchsorted(frames, frame))

@@ -215,7 +215,8 @@ def _one_object_twice(track: ObjectTrack, other: ObjectTrack, frame: int) -> boo
 
 
 def _gap(track: ObjectTrack, other: ObjectTrack, frame: int, *, unseen_on_course: bool = False) -> float:
-    """Smallest gap (m) between the two bounding circles within +-2 frames of ``frame``; inf if unseen.
+    """Smallest gap (m) between the two bounding circles within +-2 frames of ``frame``; inf where no probe
+    frame places both (unseen, and with ``unseen_on_course`` no straight course within reach either).
 
     Change points of fast impacts land a frame or two off the contact
     (a body at 4 m/s moves 16 cm a frame), so a short window is searched.

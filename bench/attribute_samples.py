@@ -61,9 +61,9 @@ class RecordingLifter(PrimitiveLifter):
             self._counts.setdefault(kind, []).append(counts)
         return fits
 
-    def shape_scores(self, camera, track, segments, frames_used):
+    def shape_scores(self, camera, track, segments, frames_used, frames):
         self._counts = {}
-        scores = super().shape_scores(camera, track, segments, frames_used)
+        scores = super().shape_scores(camera, track, segments, frames_used, frames)
         self.shape_record[track.id], self.count_record[track.id] = scores, self._counts
         return scores
 

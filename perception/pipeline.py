@@ -28,7 +28,7 @@ from perception.attributes import (
 )
 from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
-from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, body_of, own_shadow, pixel_hue_labels
+from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, body_of, own_shadow, pixel_hue_labels, sharpen_edges
 from perception.track import HungarianTracker, track_piece
 from perception.types import NEUTRAL, Attributes, Detection, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
@@ -113,20 +113,18 @@ class PrimitiveLifter:
                 "cylinder": fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, detection),
                 "cube": fit_cube(camera, start, self.size, labels, detection)}
 
-    def shape_scores(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> dict[str, list[float]]:
-        """Per primitive kind, the shape overlap (attributes.shape_overlap) of its best fit on each of ``frames_used``."""
+    def shape_scores(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int],
+                     frames: np.ndarray) -> dict[str, list[float]]:
+        """Per primitive kind, the shape overlap (attributes.shape_overlap) of its best fit on each of ``frames_used``,
+        judged on the segment without its mixed edge pixels (segment.sharpen_edges; frames: (F, H, W, 3) uint8)."""
         scores = {kind: [] for kind in SHAPE_KINDS}
         for frame in frames_used:
-            det, labels = track.detections[frame], segments[frame].labels
+            det, labels = sharpen_edges(frames[frame], segments[frame].labels, track.detections[frame])
             # fitted without the segment's own shadow: a sphere's contact shadow would draw its fit down onto it
             shadow = own_shadow(labels, det)
             for kind, fit in self.shape_fits(camera, body_of(det, shadow), labels).items():
                 scores[kind].append(shape_overlap(camera, kind, fit, self.size, det, labels, shadow))
         return scores
-
-    def decide_shape(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int]) -> tuple[str, float, float]:
-        """(kind, margin over the runner-up, mean J of the kind) on ``frames_used``."""
-        return rank_shapes(self.shape_scores(camera, track, segments, frames_used))
 
     def _lift_track(self, frames: np.ndarray, segments: list[FrameSegments], track: TrackState,
                    camera: Camera) -> tuple[LiftedTrack, dict[str, list[float]]] | None:
@@ -134,7 +132,7 @@ class PrimitiveLifter:
         primitive of the known size explains it (a fragment, not an object)."""
         isolated = _isolated_frames(track, segments)
         basis = _spread(isolated, MAX_ATTRIBUTE_FRAMES) or _spread(sorted(track.detections), MAX_ATTRIBUTE_FRAMES)
-        scores = self.shape_scores(camera, track, segments, basis)
+        scores = self.shape_scores(camera, track, segments, basis, frames)
         kind, _, shape_score = rank_shapes(scores)
         if shape_score < MIN_SHAPE_SCORE:
             return None

@@ -14,7 +14,7 @@ import numpy as np
 from scipy import ndimage as ndi
 from tqdm import tqdm
 
-from perception.background import DEEP, Background, FloorRange, classify_pixels, estimate_background, floor_range, is_foreground
+from perception.background import DEEP, FLOOR, Background, FloorRange, classify_pixels, estimate_background, floor_range, is_foreground
 from perception.geometry import primitive_window, ray_depths, window_rays
 from perception.lift import fit_primitive, initial_centre
 from perception.types import NEUTRAL, Detection, FrameSegments
@@ -100,6 +100,60 @@ def body_of(detection: Detection, shadow: np.ndarray) -> Detection:
         return detection
     return Detection(detection.frame, detection.ys[~shadow], detection.xs[~shadow], detection.hue_label,
                      detection.touches_border, detection.component, detection.split)
+
+
+EDGE_ZONE_PX = 2  # px: the segment's pixels this close to its edge may be mixed object / floor pixels
+EDGE_CONTEXT_PX = 3  # px: half-size of the box whose pure object and floor pixels give a mixed pixel's two colours
+MIN_EDGE_CONTRAST = 24.0  # grey levels (RGB distance): below this object and floor are too alike to unmix
+
+
+def sharpen_edges(frame: np.ndarray, labels: np.ndarray, detection: Detection) -> tuple[Detection, np.ndarray]:
+    """The detection with its edge pixels that are less than half object taken out, and the frame's labels
+    with those pixels made floor: (Detection, (H, W) uint8 labels, a copy when anything changed).
+
+    Blur and compression spread an object's edge over a few pixels; segmentation keeps every pixel that
+    differs from the floor by a few grey levels, so a high-contrast object's segment is about a pixel
+    larger all round than the object, and a larger primitive's corners cover that ring (cylinders read
+    as cubes: docs/perception.md). A pixel within EDGE_ZONE_PX of the edge is modelled as a mix
+    alpha x object + (1 - alpha) x floor, its two colours the mean of the pure pixels around it (the
+    segment's pixels deeper than the zone, the floor-labelled pixels outside it, within EDGE_CONTEXT_PX);
+    alpha is the projection of (pixel - floor) on (object - floor). It calibrates itself on each video:
+    no threshold on colours. Pixels whose two colours are not known or too alike stay.
+
+    frame: (H, W, 3) uint8; labels: (H, W) uint8 (background labels)."""
+    height, width = labels.shape
+    margin = EDGE_ZONE_PX + EDGE_CONTEXT_PX + 1
+    top, bottom = max(int(detection.ys.min()) - margin, 0), min(int(detection.ys.max()) + margin + 1, height)
+    left, right = max(int(detection.xs.min()) - margin, 0), min(int(detection.xs.max()) + margin + 1, width)
+    mine = np.zeros((bottom - top, right - left), dtype=bool)
+    ys, xs = detection.ys - top, detection.xs - left
+    mine[ys, xs] = True
+    core = ndi.binary_erosion(mine, iterations=EDGE_ZONE_PX, border_value=1)
+    floor = (labels[top:bottom, left:right] == FLOOR) & ~mine
+    image = frame[top:bottom, left:right].astype(np.float32)
+    size = 2 * EDGE_CONTEXT_PX + 1
+
+    def local_mean(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        count = ndi.uniform_filter(mask.astype(np.float32), size, mode="constant")
+        total = np.stack([ndi.uniform_filter(image[..., c] * mask, size, mode="constant") for c in range(3)], axis=-1)
+        return total / np.maximum(count, 1e-6)[..., None], count > 0.5 / size ** 2
+
+    object_colour, has_object = local_mean(core)
+    floor_colour, has_floor = local_mean(floor)
+    zone = mine & ~core & has_object & has_floor
+    contrast = object_colour - floor_colour
+    norm2 = (contrast ** 2).sum(axis=-1)
+    alpha = ((image - floor_colour) * contrast).sum(axis=-1) / np.maximum(norm2, 1e-6)
+    drop = zone & (norm2 >= MIN_EDGE_CONTRAST ** 2) & (alpha < 0.5)
+    if not drop.any():
+        return detection, labels
+    keep = ~drop[ys, xs]
+    sharpened = Detection(detection.frame, detection.ys[keep], detection.xs[keep], detection.hue_label,
+                          detection.touches_border, detection.component, detection.split)
+    relabelled = labels.copy()
+    dys, dxs = np.nonzero(drop)
+    relabelled[dys + top, dxs + left] = FLOOR
+    return sharpened, relabelled
 
 
 def classify_frame(frame: np.ndarray, background: Background, bounds: FloorRange | None = None) -> np.ndarray:

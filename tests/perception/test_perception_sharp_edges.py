@@ -14,13 +14,12 @@ import pytest
 from scipy import ndimage as ndi
 
 from perception.background import FLOOR, OBJECT
-from perception.pipeline import perceive_frames
+from perception.geometry import silhouette
+from perception.pipeline import PrimitiveLifter, rank_shapes
 from perception.segment import sharpen_edges
-from perception.types import Detection
-from perception.video import read_video
+from perception.types import Detection, FrameSegments, TrackState
 from synth.generate import scene_draws
-from synth.render import render_scene, write_mp4
-from synth.simulate import simulate
+from world.observations import DEFAULT_OBJECT_SIZE as OBJECT_SIZE
 
 FLOOR_RGB = np.array([150.0, 150.0, 150.0])
 
@@ -60,42 +59,37 @@ def test_an_object_like_the_floor_keeps_its_segment():
     assert sharpened.area == detection.area and relabelled is labels
 
 
-SEED = 902247  # used by no fixture, no benchmark and no tuning
-SCENES = range(8)
-MATCH_M = 0.3  # a track follows an object when its mean planar distance to it is below this
-MIN_TRACK_SAMPLES = 10
+def _blurred_primitive(camera, kind: str, centre, colour, yaw: float = 0.0, blur: float = 1.0):
+    """(frame (H, W, 3) uint8, FrameSegments) of one primitive of ``colour`` on a grey floor: its silhouette
+    ray-cast at 4 x 4 samples per pixel (anti-aliased), blurred by a Gaussian of ``blur`` px, segmented at 8 grey
+    levels as background differencing does."""
+    fine = replace(camera, width=camera.width * SUPERSAMPLE, height=camera.height * SUPERSAMPLE, fx=camera.fx * SUPERSAMPLE,
+                   fy=camera.fy * SUPERSAMPLE, cx=(camera.cx + 0.5) * SUPERSAMPLE - 0.5, cy=(camera.cy + 0.5) * SUPERSAMPLE - 0.5)
+    window, sil = silhouette(fine, kind, np.asarray(centre, float), OBJECT_SIZE, yaw)
+    full = np.zeros((fine.height, fine.width))
+    full[window.top:window.bottom, window.left:window.right] = sil
+    coverage = ndi.gaussian_filter(full.reshape(camera.height, SUPERSAMPLE, camera.width, SUPERSAMPLE).mean(axis=(1, 3)), blur)
+    frame = np.clip(np.rint(coverage[..., None] * np.asarray(colour, float) + (1 - coverage[..., None]) * FLOOR_RGB), 0, 255).astype(np.uint8)
+    segment = np.abs(frame.astype(float) - FLOOR_RGB).max(axis=-1) > 8
+    ys, xs = np.nonzero(segment)
+    detection = Detection(0, ys.astype(np.int32), xs.astype(np.int32), 1, False, 0)
+    return frame, FrameSegments(0, np.where(segment, OBJECT, FLOOR).astype(np.uint8), (detection,))
 
 
-@pytest.mark.slow
-def test_cylinders_are_perceived_as_cylinders(tmp_path):
-    """Scenes drawn here in held-out looks (lights, cameras, floors and compression perception was not tuned on),
-    every object a coloured cylinder, simulated and rendered by MuJoCo, h264, perceived; each track matched to
-    the object it follows. Before the edges were sharpened, 49 of 56 were read right here (test run against
-    main)."""
-    judged, right, wrong = 0, 0, []
-    for index in SCENES:
-        spec = next(scene_draws(SEED, index, "heldout")[2])
-        spec = replace(spec, objects=tuple(replace(o, shape="cylinder") for o in spec.objects))
-        sim = simulate(spec, horizon_frames=spec.observed_frames)
-        rgb, _ = render_scene(spec, sim)
-        path = tmp_path / f"cylinders_{index}.mp4"
-        write_mp4(path, rgb, spec.fps, spec.look.crf)
-        frames, fps = read_video(path)
-        observations, _ = perceive_frames(frames, spec.camera, fps=fps)
-        colour_of = {o.object_id: o.color for o in spec.objects}
-        for track in observations.objects:
-            if track.observed.sum() < MIN_TRACK_SAMPLES:
-                continue
-            seen = track.frames[track.observed]
-            distances = [float(np.mean(np.linalg.norm(track.positions[track.observed, :2] - sim.positions[seen, k, :2], axis=1)))
-                         for k in range(len(sim.object_ids))]
-            k = int(np.argmin(distances))
-            if distances[k] >= MATCH_M:
-                continue
-            judged += 1
-            if track.shape.kind == "cylinder":
-                right += 1
-            else:
-                wrong.append(f"scene {index} object {sim.object_ids[k]} ({colour_of[sim.object_ids[k]]}): read as {track.shape.kind}")
-    assert judged >= 30, f"only {judged} cylinders followed"
-    assert right >= 0.95 * judged, f"{right}/{judged} cylinders read as cylinders; " + "; ".join(wrong)
+SUPERSAMPLE = 4
+CAMERA_SEED = 902247  # a held-out look's camera, used by no fixture, no benchmark and no tuning
+
+
+@pytest.mark.parametrize("kind", ["cylinder", "cube", "sphere"])
+@pytest.mark.parametrize("colour", [(40, 20, 120), (230, 200, 40), (30, 140, 60)])
+def test_a_blurred_primitive_is_read_as_its_shape(kind, colour):
+    """Main read 7 of these 9 cylinders as cubes (margins 0.003-0.04); sharpened, each cylinder wins by > 0.1."""
+    camera = next(scene_draws(CAMERA_SEED, 0, "heldout")[2]).camera
+    lifter = PrimitiveLifter()
+    for centre, yaw in (([0.3, 0.5, 0.2], 0.3), ([-1.0, 1.2, 0.2], 0.0), ([1.2, -0.5, 0.2], 0.7)):
+        frame, segments = _blurred_primitive(camera, kind, centre, colour, yaw)
+        assert segments.detections[0].area > 0, "the primitive should be in view"
+        track = TrackState(0, 1, {0: segments.detections[0]})
+        scores = lifter.shape_scores(camera, track, [segments], [0], frame[None])
+        decided, margin, _ = rank_shapes(scores)
+        assert decided == kind and margin > 0.05, (centre, {k: round(v[0], 3) for k, v in scores.items()})

@@ -187,6 +187,17 @@ def evaluate_scene(root: Path, index: int, e2e: bool, build: bool = True) -> dic
     return result
 
 
+def shape_confusions(features: list[tuple]) -> str:
+    """The wrong shape decisions of matched tracks, most frequent first: "cylinder -> cube 3, ..." ("none" when all
+    are right). features: (true shape, true material, decided shape, P(metal), shape score) per matched track."""
+    counts: dict[tuple[str, str], int] = {}
+    for true_shape, _, decided, *_ in features:
+        if decided != true_shape:
+            counts[(true_shape, decided)] = counts.get((true_shape, decided), 0) + 1
+    ranked = sorted(counts.items(), key=lambda item: (-item[1], item[0]))
+    return ", ".join(f"{a} -> {b} {n}" for (a, b), n in ranked) or "none"
+
+
 def _condition(ground_truth: dict) -> str:
     """The appearance condition a video was rendered in, for the per-condition table.
 
@@ -275,6 +286,7 @@ def main(argv: list[str] | None = None) -> int:
         truth_metal = np.array([f[1] == "metal" for f in features])
         p_metal = np.clip(np.array([f[3] for f in features], dtype=float), 1e-6, 1 - 1e-6)
         print(f"| material log loss of P(metal) (matched tracks) | {float(np.mean(-np.log(np.where(truth_metal, p_metal, 1 - p_metal)))):.3f} | |")
+        print(f"| shapes read wrong, true -> read (count) | {shape_confusions(features)} | none |")
     events = np.concatenate([r["event_errors"] for r in results if r["event_errors"]] or [np.zeros(0)])
     if events.size:
         print(f"| entry/exit frame error: within 2 frames / median / max | {np.mean(events <= 2):.3f} ({int(np.sum(events <= 2))}/{events.size}) "

@@ -117,8 +117,9 @@ def sharpen_edges(frame: np.ndarray, labels: np.ndarray, detection: Detection) -
     as cubes: docs/perception.md). A pixel within EDGE_ZONE_PX of the edge is modelled as a mix
     alpha x object + (1 - alpha) x floor, its two colours the mean of the pure pixels around it (the
     segment's pixels deeper than the zone, the floor-labelled pixels outside it, within EDGE_CONTEXT_PX);
-    alpha is the projection of (pixel - floor) on (object - floor). It calibrates itself on each video:
-    no threshold on colours. Pixels whose two colours are not known or too alike stay.
+    alpha is the projection of (pixel - floor) on (object - floor). Both colours are measured in the frame
+    itself, so no paint or floor colour is assumed; pixels whose two colours are not known or closer than
+    MIN_EDGE_CONTRAST stay. The segment's core is never dropped, so the result is never empty.
 
     frame: (H, W, 3) uint8; labels: (H, W) uint8 (background labels)."""
     height, width = labels.shape

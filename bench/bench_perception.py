@@ -17,7 +17,7 @@ fitted primitives' visible silhouettes (pipeline.instance_map).
   more than one perceived id;
 * position error on the plane (xy, in object radii = 0.2 m) of matched tracks
   over frames with the object fully in view and weight > 0;
-* colour / shape / material accuracy of matched tracks;
+* colour / shape / material accuracy of matched tracks, and the wrong shapes by kind (true -> read);
 * wall time and CPU time per video (decode + perceive), per stage; and the CPU time of `physmind build`
   (decode + perceive + fit: world.identify.fit.identify and the world document), unless --no-build;
 * end to end: perceived vs oracle observations -> world.identify.fit.identify

@@ -135,8 +135,9 @@ def sharpen_edges(frame: np.ndarray, labels: np.ndarray, detection: Detection) -
     size = 2 * EDGE_CONTEXT_PX + 1
 
     def local_mean(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(h, w, 3) mean colour of the ``mask`` pixels in each pixel's box, and (h, w) bool: the box holds one."""
         count = ndi.uniform_filter(mask.astype(np.float32), size, mode="constant")
-        total = np.stack([ndi.uniform_filter(image[..., c] * mask, size, mode="constant") for c in range(3)], axis=-1)
+        total = ndi.uniform_filter(image * mask[..., None], (size, size, 1), mode="constant")
         return total / np.maximum(count, 1e-6)[..., None], count > 0.5 / size ** 2
 
     object_colour, has_object = local_mean(core)

@@ -26,6 +26,16 @@ SUPERSAMPLE = 4  # ray-cast samples per pixel side
 CAMERA_SEED = 902247  # a held-out look's camera, used by no fixture, no benchmark and no tuning
 
 
+def _composited(coverage: np.ndarray, colour, hue_label: int):
+    """(frame (h, w, 3) uint8, labels, detection) of paint ``colour`` covering each pixel by ``coverage`` (h, w) in
+    [0, 1] over a grey floor, segmented as background differencing does: a pixel more than 8 grey levels off the
+    floor is object."""
+    frame = np.clip(np.rint(coverage[..., None] * np.asarray(colour, float) + (1 - coverage[..., None]) * FLOOR_RGB), 0, 255).astype(np.uint8)
+    segment = np.abs(frame.astype(float) - FLOOR_RGB).max(axis=-1) > 8
+    ys, xs = np.nonzero(segment)
+    return frame, np.where(segment, OBJECT, FLOOR).astype(np.uint8), Detection(0, ys.astype(np.int32), xs.astype(np.int32), hue_label, False, 0)
+
+
 def _blurred_disc(colour, radius: float = 14.0, blur: float = 1.2, size: int = 64):
     """(frame (size, size, 3) uint8, labels, detection, true (size, size) bool disc): a disc of ``colour`` on a
     grey floor, supersampled (anti-aliased), blurred by a Gaussian of ``blur`` px, segmented at 8 grey levels."""
@@ -33,12 +43,7 @@ def _blurred_disc(colour, radius: float = 14.0, blur: float = 1.2, size: int = 6
     yy, xx = np.mgrid[0:size * fine, 0:size * fine]
     centre = size * fine / 2.0
     coverage = ((yy - centre + 0.5) ** 2 + (xx - centre + 0.5) ** 2 <= (radius * fine) ** 2).reshape(size, fine, size, fine).mean(axis=(1, 3))
-    coverage = ndi.gaussian_filter(coverage, blur)
-    frame = np.clip(np.rint(coverage[..., None] * np.asarray(colour, float) + (1 - coverage[..., None]) * FLOOR_RGB), 0, 255).astype(np.uint8)
-    segment = np.abs(frame.astype(float) - FLOOR_RGB).max(axis=-1) > 8
-    labels = np.where(segment, OBJECT, FLOOR).astype(np.uint8)
-    ys, xs = np.nonzero(segment)
-    detection = Detection(0, ys.astype(np.int32), xs.astype(np.int32), 0, False, 0)
+    frame, labels, detection = _composited(ndi.gaussian_filter(coverage, blur), colour, hue_label=0)
     yy, xx = np.mgrid[0:size, 0:size]
     truth = (yy - size / 2 + 0.5) ** 2 + (xx - size / 2 + 0.5) ** 2 <= radius ** 2
     return frame, labels, detection, truth
@@ -71,11 +76,8 @@ def _blurred_primitive(camera, kind: str, centre, colour, yaw: float = 0.0, blur
     full = np.zeros((fine.height, fine.width))
     full[window.top:window.bottom, window.left:window.right] = sil
     coverage = ndi.gaussian_filter(full.reshape(camera.height, SUPERSAMPLE, camera.width, SUPERSAMPLE).mean(axis=(1, 3)), blur)
-    frame = np.clip(np.rint(coverage[..., None] * np.asarray(colour, float) + (1 - coverage[..., None]) * FLOOR_RGB), 0, 255).astype(np.uint8)
-    segment = np.abs(frame.astype(float) - FLOOR_RGB).max(axis=-1) > 8
-    ys, xs = np.nonzero(segment)
-    detection = Detection(0, ys.astype(np.int32), xs.astype(np.int32), 1, False, 0)
-    return frame, FrameSegments(0, np.where(segment, OBJECT, FLOOR).astype(np.uint8), (detection,))
+    frame, labels, detection = _composited(coverage, colour, hue_label=1)
+    return frame, FrameSegments(0, labels, (detection,))
 
 
 @pytest.mark.parametrize("kind", ["cylinder", "cube", "sphere"])

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from perception.background import AMBIGUOUS, FLOOR
-from perception.geometry import silhouette
+from perception.geometry import silhouette, silhouette_and_top
 from perception.lift import Fit
 from perception.material_model import appearance_windows, metal_probability
 from perception.segment import pixel_hue_labels
@@ -72,17 +72,22 @@ def material_of(detections: list[Detection], frames: np.ndarray, segments: list[
 
 
 def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: Detection, labels: np.ndarray,
-                  shadow: np.ndarray) -> float:
+                  shadow: np.ndarray, free_top: bool = False) -> float:
     """J_shape = |S & D| / (|D| + |S & floor| + AMBIGUOUS_WEIGHT |S & ambiguous|) of the primitive's silhouette S
     at its fitted pose and the detection D (labels: the frame's (H, W) pixel labels), in [0, 1]; the
     detection's own shadow (``shadow``: segment.own_shadow's (area,) mask) counts as ambiguous, not as D.
     For a grey (hue-less) detection they weigh HUELESS_AMBIGUOUS_WEIGHT (ambiguous_weight): its lit faces are shadow-like.
+    With ``free_top`` (lift.fit_primitive's) floor under the primitive's upward surface weighs AMBIGUOUS_WEIGHT:
+    it may be the object's top, lit as the floor is, but a larger primitive must not cover the floor for free.
 
     The fit's own overlap counts shadow-like (ambiguous) pixels neither for nor against, which is right
     for placing a primitive (a grey rubber object is only half certain) but lets a larger primitive win
     the shape decision for free wherever the object stands in its own soft shadow (POV-Ray's area
     lights: cylinders and spheres read as cubes, docs/benchmarks.md "Material across renderers")."""
-    window, sil = silhouette(camera, kind, fit.centre, size, fit.yaw)
+    if free_top:
+        window, sil, top = silhouette_and_top(camera, kind, fit.centre, size, fit.yaw)
+    else:
+        (window, sil), top = silhouette(camera, kind, fit.centre, size, fit.yaw), None
     if window.empty:
         return 0.0
     region = labels[window.top:window.bottom, window.left:window.right]
@@ -92,6 +97,8 @@ def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: D
     covered[inside] = sil[ys[inside], xs[inside]]
     hits = float((covered & ~shadow).sum())
     floor = float((sil & (region == FLOOR)).sum())
+    if top is not None:  # floor that may be the object's top weighs as a shadow-like pixel of a coloured object
+        floor -= (1.0 - AMBIGUOUS_WEIGHT) * float((top & (region == FLOOR)).sum())
     ambiguous = float((sil & (region == AMBIGUOUS)).sum()) + float((covered & shadow).sum())
     return hits / (detection.area - float(shadow.sum()) + floor + ambiguous_weight(detection.hue_label == NEUTRAL) * ambiguous)
 

@@ -155,7 +155,7 @@ def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLE
     threshold = static_threshold(deviation)
     lift = bright / np.maximum(median, 1.0)
     lift_mean = lift.mean(axis=-1)
-    kept_chroma = _same_chroma(lift, lift_mean)
+    kept_chroma = same_chroma(lift, lift_mean)
     # the bright state must itself look like floor: a grey object resting part of the video is not the floor
     shadowed = (lift_mean > SHADOW_LIFT) & kept_chroma & (np.abs(bright - floor_fit).max(axis=-1) <= threshold)
     unshadowed = np.where(shadowed[..., None], bright, median)
@@ -171,7 +171,7 @@ def estimate_background(frames: np.ndarray, max_samples: int = BACKGROUND_SAMPLE
     return Background(image=image, floor_fit=floor_fit, static=static, noise=noise)
 
 
-def _same_chroma(ratio: np.ndarray, ratio_mean: np.ndarray | None = None) -> np.ndarray:
+def same_chroma(ratio: np.ndarray, ratio_mean: np.ndarray | None = None) -> np.ndarray:
     """(...) bool: the (..., 3) per-channel ratios of two colours agree within CHROMA_OBJECT of their mean
     (``ratio_mean``, computed when not given): one colour lit more or less, not another colour."""
     ratio_mean = ratio.mean(axis=-1) if ratio_mean is None else ratio_mean
@@ -198,7 +198,7 @@ def _floor_seen(sampled: np.ndarray, static: np.ndarray, median: np.ndarray, flo
     ratio = values / np.maximum(model, 1.0)
     from_model = np.abs(values - model).max(axis=-1)
     # a grey object on a textured floor can be within the floor's texture of the model: it is the median
-    floor_like = (from_model <= threshold) & (from_model < np.abs(values - median[static]).max(axis=-1)) & _same_chroma(ratio)
+    floor_like = (from_model <= threshold) & (from_model < np.abs(values - median[static]).max(axis=-1)) & same_chroma(ratio)
     enough = floor_like.sum(axis=0) >= MIN_FLOOR_SAMPLES
     # their bright state: a floor-like sample may be in a neighbour's soft shadow, never brighter than the floor.
     # np.nanpercentile's linear interpolation, on one sort (NaN last): nanpercentile itself loops in Python

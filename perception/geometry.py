@@ -164,3 +164,28 @@ def silhouette(camera: Camera, kind: str, centre: np.ndarray, size: float, yaw: 
     """Window and (h, w) bool silhouette of a primitive (clipped to the image)."""
     window = primitive_window(camera, kind, centre, size)
     return window, np.isfinite(ray_depths(camera, kind, centre, size, yaw, window))
+
+
+UPWARD_NORMAL_Z = 0.9  # a surface whose normal is this close to vertical faces up (a sphere's cap within 26 deg)
+TOP_FACE_TOLERANCE = 1e-6  # m: a cube's or cylinder's first hit this close to its top plane is on its top face
+
+
+def upward_surface(camera: Camera, kind: str, centre: np.ndarray, size: float, depths: np.ndarray, window: Box2D,
+                   directions: np.ndarray | None = None) -> np.ndarray:
+    """(h, w) bool: the window's pixels whose first hit (depths: ray_depths over ``window``) lies on an upward
+    surface of the primitive: a cube's or cylinder's top face, a sphere's cap (normal z >= UPWARD_NORMAL_Z).
+    Such a surface gets the light the floor gets, so a paint like the floor's looks like the floor."""
+    if directions is None:
+        directions = window_rays(camera, window)
+    height_above_centre = (float(camera.position[2]) - float(np.asarray(centre)[2])) + depths * directions[..., 2]
+    lowest = UPWARD_NORMAL_Z * size if kind == "sphere" else size - TOP_FACE_TOLERANCE  # a sphere's normal z is height / radius
+    with np.errstate(invalid="ignore"):
+        return np.isfinite(depths) & (height_above_centre >= lowest)
+
+
+def silhouette_and_top(camera: Camera, kind: str, centre: np.ndarray, size: float, yaw: float = 0.0) -> tuple[Box2D, np.ndarray, np.ndarray]:
+    """Window, (h, w) bool silhouette and (h, w) bool upward surface (upward_surface) of a primitive."""
+    window = primitive_window(camera, kind, centre, size)
+    directions = window_rays(camera, window)
+    depths = ray_depths(camera, kind, centre, size, yaw, window, directions)
+    return window, np.isfinite(depths), upward_surface(camera, kind, centre, size, depths, window, directions)

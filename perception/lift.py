@@ -9,6 +9,12 @@ the local pixel/metre Jacobian. Two rounds (wide, then narrow) converge. The
 fit uses the whole silhouette, so objects cut by the image border, partly
 segmented grey objects and shadows do not bias the centre the way a mask
 centroid or a lowest-pixel contact point would. Cubes also search yaw.
+
+With ``free_top`` (an object whose paint has the floor's chroma, segment.paint_like_floor) plain floor
+under the primitive's upward surface (geometry.upward_surface) counts as shadow-like pixels do, neither
+for nor against, and a segment pixel there half (TOP_SEGMENT_EVIDENCE): a top face gets the light the
+floor gets, so a grey top on a grey floor is labelled floor, and counting it against the primitive slid
+the fit toward the camera, onto its free shadow, by up to half the object.
 """
 
 from __future__ import annotations
@@ -19,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from perception.background import FLOOR
-from perception.geometry import ground_jacobian, primitive_window, ray_depths, silhouette, window_rays
+from perception.geometry import ground_jacobian, primitive_window, ray_depths, silhouette, silhouette_and_top, upward_surface, window_rays
 from world.camera import backproject_to_height
 from perception.types import Detection
 
@@ -71,11 +77,27 @@ def overlap_score(camera, kind: str, centre: np.ndarray, size: float, yaw: float
     return hits / (detection.area + floor), int(sil.sum())
 
 
-def _shift_scores(ev: np.ndarray, sil: np.ndarray, radius: int, iy: int, ix: int) -> tuple[float, float]:
-    """(|S & D|, |S & floor|) of the silhouette moved by (iy - radius, ix - radius) pixels inside the evidence window."""
+def _shift_scores(ev: np.ndarray, sil: np.ndarray, radius: int, iy: int, ix: int, free: np.ndarray | None = None) -> tuple[float, float]:
+    """(|S & D|, |S & floor|) of the silhouette moved by (iy - radius, ix - radius) pixels inside the evidence window;
+    floor under ``free`` (a part of S, same shape) is not counted."""
     h, w = sil.shape
     region = ev[iy:iy + h, ix:ix + w]
-    return float(((region == 2.0) & sil).sum()), float(((region == -1.0) & sil).sum())
+    costly = sil if free is None else sil & ~free
+    return float(((region == 2.0) & sil).sum()), float(((region == -1.0) & costly).sum())
+
+
+# Evidence of a segment pixel under a free top (the segment's pixels elsewhere: 2). A top lit as the floor is
+# expected to look like floor; were segment pixels as good there, a fit sliding toward the camera (its top over
+# the object's sides, its sides over the free shadow) would tie with the true pose.
+TOP_SEGMENT_EVIDENCE = 1.0
+
+
+def _all_shift_scores(evidence: np.ndarray, sil: np.ndarray, free: np.ndarray | None) -> np.ndarray:
+    """shift_scores of the silhouette; under ``free`` (a part of it) floor costs nothing and a segment pixel
+    counts TOP_SEGMENT_EVIDENCE."""
+    if free is None or not free.any():
+        return shift_scores(evidence, sil)
+    return shift_scores(evidence, sil & ~free) + shift_scores(np.where(evidence > 0, TOP_SEGMENT_EVIDENCE, 0.0), free)
 
 
 def shift_scores(evidence: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -103,7 +125,7 @@ def shift_scores(evidence: np.ndarray, mask: np.ndarray) -> np.ndarray:
 
 
 def fit_primitive(camera, kind: str, start: np.ndarray, size: float, yaw: float, labels: np.ndarray,
-                  detection: Detection, radii: tuple[int, ...] = (6, 2)) -> Fit:
+                  detection: Detection, radii: tuple[int, ...] = (6, 2), free_top: bool = False) -> Fit:
     """Slide the silhouette of ``kind`` over the detection's evidence; returns the fitted centre.
 
     One ray cast per round: within a round the silhouette is moved as a rigid
@@ -116,14 +138,17 @@ def fit_primitive(camera, kind: str, start: np.ndarray, size: float, yaw: float,
     rounds, extra = list(radii), 0
     while rounds:
         radius = rounds.pop(0)
-        window, sil = silhouette(camera, kind, centre, size, yaw)
+        if free_top:
+            window, sil, top = silhouette_and_top(camera, kind, centre, size, yaw)
+        else:
+            (window, sil), top = silhouette(camera, kind, centre, size, yaw), None
         if window.empty or not sil.any():
             return Fit(centre, yaw, 0.0, 0)
         ev = evidence_window(labels, detection, window.top - radius, window.bottom + radius,
                              window.left - radius, window.right + radius)
-        scores = shift_scores(ev, sil)  # (2r+1, 2r+1)
+        scores = _all_shift_scores(ev, sil, top)  # (2r+1, 2r+1)
         iy, ix = np.unravel_index(int(np.argmax(scores)), scores.shape)
-        hits, floor = _shift_scores(ev, sil, radius, iy, ix)
+        hits, floor = _shift_scores(ev, sil, radius, iy, ix, top)
         score, area = hits / (detection.area + floor), int(sil.sum())
         dv = iy - radius + _parabolic(scores[:, ix], iy)
         du = ix - radius + _parabolic(scores[iy, :], ix)
@@ -142,9 +167,9 @@ def fit_primitive(camera, kind: str, start: np.ndarray, size: float, yaw: float,
 
 
 def fit_cube(camera, start: np.ndarray, size: float, labels: np.ndarray, detection: Detection,
-             yaws: np.ndarray = CUBE_YAWS) -> Fit:
+             yaws: np.ndarray = CUBE_YAWS, free_top: bool = False) -> Fit:
     """Cube fit over a set of yaws: coarse position with the middle yaw, then the best yaw, then refine."""
-    base = fit_primitive(camera, "cube", start, size, float(yaws[len(yaws) // 2]), labels, detection, radii=(6,))
+    base = fit_primitive(camera, "cube", start, size, float(yaws[len(yaws) // 2]), labels, detection, radii=(6,), free_top=free_top)
     # the window does not depend on yaw: one set of rays and one evidence window for all yaws
     window = primitive_window(camera, "cube", base.centre, size)
     best_yaw, best_score = float(yaws[len(yaws) // 2]), -1.0
@@ -153,11 +178,13 @@ def fit_cube(camera, start: np.ndarray, size: float, labels: np.ndarray, detecti
         ev = evidence_window(labels, detection, window.top, window.bottom, window.left, window.right)
         segment, floor = ev == 2.0, ev == -1.0
         for yaw in yaws:
-            sil = np.isfinite(ray_depths(camera, "cube", base.centre, size, float(yaw), window, directions))
-            score = float((segment & sil).sum()) / (detection.area + float((floor & sil).sum()))
+            depths = ray_depths(camera, "cube", base.centre, size, float(yaw), window, directions)
+            sil = np.isfinite(depths)
+            costly = sil & ~upward_surface(camera, "cube", base.centre, size, depths, window, directions) if free_top else sil
+            score = float((segment & sil).sum()) / (detection.area + float((floor & costly).sum()))
             if score > best_score:
                 best_yaw, best_score = float(yaw), score
-    return fit_primitive(camera, "cube", base.centre, size, best_yaw, labels, detection, radii=(2,))
+    return fit_primitive(camera, "cube", base.centre, size, best_yaw, labels, detection, radii=(2,), free_top=free_top)
 
 
 def initial_centre(camera, detection: Detection, size: float) -> np.ndarray:
@@ -167,31 +194,34 @@ def initial_centre(camera, detection: Detection, size: float) -> np.ndarray:
 
 
 TRACKING_RADIUS = 3  # px: search radius when starting from the previous frame's fit
-LOST_SCORE_DROP = 0.12  # a warm-started fit this much worse than the previous frame's is redone from scratch
+# A warm-started fit scoring below this is compared with a search from scratch: a warm start keeps a pose
+# that explains most of the segment (a cube at the wrong yaw slid onto its free shadow) for the rest of the track.
+WARM_TRUSTED_SCORE = 0.95
 
 
 def fit_detection(camera, kind: str, detection: Detection, labels: np.ndarray, size: float,
-                  previous: Fit | None = None) -> Fit:
-    """Best pose of a known primitive for one detection.
+                  previous: Fit | None = None, free_top: bool = False) -> Fit:
+    """Best pose of a known primitive for one detection (free_top: as fit_primitive).
 
     With ``previous`` (the fit of the frame before, nearby) the search starts
     there with a small radius and, for cubes, the yaw is tracked within +-3
-    degrees; a clearly worse result falls back to the full search.
+    degrees; a result below WARM_TRUSTED_SCORE is compared with the full search.
     """
     rough = initial_centre(camera, detection, size)
     warm = previous is not None and previous.score > 0 and np.linalg.norm(previous.centre[:2] - rough[:2]) < 0.3
+
+    def primitive(start: np.ndarray, yaw: float = 0.0, radii: tuple[int, ...] = (6, 2)) -> Fit:
+        return fit_primitive(camera, kind, start, size, yaw, labels, detection, radii=radii, free_top=free_top)
+
     if not warm:
-        if kind != "cube":
-            return fit_primitive(camera, kind, rough, size, 0.0, labels, detection)
-        return fit_cube(camera, rough, size, labels, detection)
+        return primitive(rough) if kind != "cube" else fit_cube(camera, rough, size, labels, detection, free_top=free_top)
     if kind != "cube":
-        fit = fit_primitive(camera, kind, previous.centre, size, 0.0, labels, detection, radii=(TRACKING_RADIUS,))
-        if fit.score < previous.score - LOST_SCORE_DROP:
-            fit = max(fit, fit_primitive(camera, kind, rough, size, 0.0, labels, detection), key=lambda f: f.score)
+        fit = primitive(previous.centre, radii=(TRACKING_RADIUS,))
+        if fit.score < WARM_TRUSTED_SCORE:
+            fit = max(fit, primitive(rough), key=lambda f: f.score)
         return fit
     near = np.mod(previous.yaw + np.radians([-3.0, 0.0, 3.0]), math.pi / 2)
-    fit = max((fit_primitive(camera, "cube", previous.centre, size, float(y), labels, detection, radii=(TRACKING_RADIUS,))
-               for y in near), key=lambda f: f.score)
-    if fit.score < previous.score - LOST_SCORE_DROP:  # lost the pose (a hit spun it): search all
-        fit = max(fit, fit_cube(camera, rough, size, labels, detection), key=lambda f: f.score)
+    fit = max((primitive(previous.centre, float(y), (TRACKING_RADIUS,)) for y in near), key=lambda f: f.score)
+    if fit.score < WARM_TRUSTED_SCORE:  # lost the pose (a hit spun it), or never had it: search all
+        fit = max(fit, fit_cube(camera, rough, size, labels, detection, free_top=free_top), key=lambda f: f.score)
     return fit

@@ -28,7 +28,7 @@ from perception.attributes import (
 )
 from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
-from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, body_of, own_shadow, pixel_hue_labels, sharpen_edges
+from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, body_of, own_shadow, paint_like_floor, pixel_hue_labels, sharpen_edges
 from perception.track import HungarianTracker, track_piece
 from perception.types import NEUTRAL, Attributes, Detection, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
 from perception.video import read_video
@@ -106,24 +106,26 @@ class PrimitiveLifter:
     def __init__(self, object_size: float = DEFAULT_OBJECT_SIZE) -> None:
         self.size = object_size
 
-    def shape_fits(self, camera: Camera, detection: Detection, labels: np.ndarray) -> dict[str, Fit]:
-        """Per primitive kind, its best fit to one detection (labels: the frame's (H, W) pixel labels)."""
+    def shape_fits(self, camera: Camera, detection: Detection, labels: np.ndarray, free_top: bool = False) -> dict[str, Fit]:
+        """Per primitive kind, its best fit to one detection (labels: the frame's (H, W) pixel labels; free_top:
+        lift.fit_primitive's)."""
         start = initial_centre(camera, detection, self.size)
-        return {"sphere": fit_primitive(camera, "sphere", start, self.size, 0.0, labels, detection),
-                "cylinder": fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, detection),
-                "cube": fit_cube(camera, start, self.size, labels, detection)}
+        return {"sphere": fit_primitive(camera, "sphere", start, self.size, 0.0, labels, detection, free_top=free_top),
+                "cylinder": fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, detection, free_top=free_top),
+                "cube": fit_cube(camera, start, self.size, labels, detection, free_top=free_top)}
 
     def shape_scores(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int],
-                     frames: np.ndarray) -> dict[str, list[float]]:
+                     frames: np.ndarray, free_top: bool = False) -> dict[str, list[float]]:
         """Per primitive kind, the shape overlap (attributes.shape_overlap) of its best fit on each of ``frames_used``,
-        judged on the segment without its mixed edge pixels (segment.sharpen_edges; frames: (F, H, W, 3) uint8)."""
+        judged on the segment without its mixed edge pixels (segment.sharpen_edges; frames: (F, H, W, 3) uint8;
+        free_top: lift.fit_primitive's)."""
         scores = {kind: [] for kind in SHAPE_KINDS}
         for frame in frames_used:
             det, labels = sharpen_edges(frames[frame], segments[frame].labels, track.detections[frame])
             # fitted without the segment's own shadow: a sphere's contact shadow would draw its fit down onto it
             shadow = own_shadow(labels, det)
-            for kind, fit in self.shape_fits(camera, body_of(det, shadow), labels).items():
-                scores[kind].append(shape_overlap(camera, kind, fit, self.size, det, labels, shadow))
+            for kind, fit in self.shape_fits(camera, body_of(det, shadow), labels, free_top).items():
+                scores[kind].append(shape_overlap(camera, kind, fit, self.size, det, labels, shadow, free_top))
         return scores
 
     def _lift_track(self, frames: np.ndarray, segments: list[FrameSegments], track: TrackState,
@@ -132,7 +134,9 @@ class PrimitiveLifter:
         primitive of the known size explains it (a fragment, not an object)."""
         isolated = _isolated_frames(track, segments)
         basis = _spread(isolated, MAX_ATTRIBUTE_FRAMES) or _spread(sorted(track.detections), MAX_ATTRIBUTE_FRAMES)
-        scores = self.shape_scores(camera, track, segments, basis, frames)
+        # an object with the floor's chroma may show its top as floor (lift.fit_primitive's free_top): most frames decide
+        free_top = 2 * sum(paint_like_floor(frames[f], segments[f].labels, track.detections[f]) for f in basis) > len(basis)
+        scores = self.shape_scores(camera, track, segments, basis, frames, free_top)
         kind, _, shape_score = rank_shapes(scores)
         if shape_score < MIN_SHAPE_SCORE:
             return None
@@ -145,7 +149,7 @@ class PrimitiveLifter:
             if previous is not None and _same_segment(reference, det):
                 fit = previous  # a resting object: the same pixels give the same pose (most frames of most videos)
             else:
-                fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous)
+                fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous, free_top)
                 previous, reference = fit, det
             weight = float(np.clip(fit.score / 0.7, 0.0, 1.0))
             if det.touches_border:

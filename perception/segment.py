@@ -14,9 +14,10 @@ import numpy as np
 from scipy import ndimage as ndi
 from tqdm import tqdm
 
-from perception.background import DEEP, FLOOR, Background, FloorRange, classify_pixels, estimate_background, floor_range, is_foreground
+from perception.background import DEEP, FLOOR, Background, FloorRange, classify_pixels, estimate_background, floor_range, is_foreground, same_chroma
 from perception.geometry import primitive_window, ray_depths, window_rays
 from perception.lift import fit_primitive, initial_centre
+from perception.material_model import appearance_window
 from perception.types import NEUTRAL, Detection, FrameSegments
 from world.observations import DEFAULT_OBJECT_SIZE
 from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB, COLORS, Camera
@@ -156,6 +157,19 @@ def sharpen_edges(frame: np.ndarray, labels: np.ndarray, detection: Detection) -
     dys, dxs = np.nonzero(drop)
     relabelled[dys + top, dxs + left] = FLOOR
     return sharpened, relabelled
+
+
+def paint_like_floor(frame: np.ndarray, labels: np.ndarray, detection: Detection) -> bool:
+    """Whether the segment's median colour has the chroma of the plain floor around it (the appearance window's
+    floor ring; background.same_chroma): a grey object on a grey floor, whose upward faces, lit as the floor is,
+    can pass for floor (lift.fit_primitive's free_top). frame (H, W, 3) uint8; labels (H, W) the frame's pixel
+    labels. False without floor around it."""
+    window = appearance_window(detection, frame, labels)
+    if not window.ring.any():
+        return False
+    paint = np.median(window.rgb[window.segment].astype(np.float32), axis=0)
+    floor = np.median(window.rgb[window.ring].astype(np.float32), axis=0)
+    return bool(same_chroma(paint / np.maximum(floor, 1.0)))
 
 
 def classify_frame(frame: np.ndarray, background: Background, bounds: FloorRange | None = None) -> np.ndarray:

@@ -129,7 +129,9 @@ def test_schema_errors_are_422_with_a_pointer(client, world_id, tool, args, poin
         ("teleport", {}, "tool_not_found", ""),
     ],
 )
-def test_unknown_ids_are_404_listing_valid_ids(client, world_id, path_tool, args, code, pointer):
+def test_unknown_ids_are_404_listing_valid_ids(client, world_document, path_tool, args, code, pointer):
+    # a world of its own: the session's world holds the rollouts of every test its worker ran (listed up to 20)
+    world_id = client.post("/v1/worlds", json={"world": world_document}).json()["world_id"]
     response = client.post(f"/v1/worlds/{world_id}/tools/{path_tool}", json=args)
     assert response.status_code == 404
     error = response.json()["error"]

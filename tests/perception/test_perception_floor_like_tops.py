@@ -5,7 +5,7 @@ A top face gets the light the floor gets, so a grey top on a grey floor is label
 primitive, it slid the fit toward the camera onto the object's free shadow (11-31 cm on development scene 7373/17)
 and decided cubes and cylinders to be spheres. Geometry first (the upward surface against an independent
 ray-plane intersection), then synthetic label maps, then MuJoCo renders of grey objects on a floor of their own
-paint (a seed no fixture, benchmark or tuning used)."""
+paint (a seed no fixture and no tuning used)."""
 
 from __future__ import annotations
 

@@ -22,7 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from perception.background import AMBIGUOUS, FLOOR
-from perception.geometry import silhouette, silhouette_and_top
+from perception.geometry import silhouette_and_top
 from perception.lift import Fit
 from perception.material_model import appearance_windows, metal_probability
 from perception.segment import pixel_hue_labels
@@ -84,10 +84,7 @@ def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: D
     for placing a primitive (a grey rubber object is only half certain) but lets a larger primitive win
     the shape decision for free wherever the object stands in its own soft shadow (POV-Ray's area
     lights: cylinders and spheres read as cubes, docs/benchmarks.md "Material across renderers")."""
-    if free_top:
-        window, sil, top = silhouette_and_top(camera, kind, fit.centre, size, fit.yaw)
-    else:
-        (window, sil), top = silhouette(camera, kind, fit.centre, size, fit.yaw), None
+    window, sil, top = silhouette_and_top(camera, kind, fit.centre, size, fit.yaw, with_top=free_top)
     if window.empty:
         return 0.0
     region = labels[window.top:window.bottom, window.left:window.right]

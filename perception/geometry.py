@@ -183,8 +183,13 @@ def upward_surface(camera: Camera, kind: str, centre: np.ndarray, size: float, d
         return np.isfinite(depths) & (height_above_centre >= lowest)
 
 
-def silhouette_and_top(camera: Camera, kind: str, centre: np.ndarray, size: float, yaw: float = 0.0) -> tuple[Box2D, np.ndarray, np.ndarray]:
-    """Window, (h, w) bool silhouette and (h, w) bool upward surface (upward_surface) of a primitive."""
+def silhouette_and_top(camera: Camera, kind: str, centre: np.ndarray, size: float, yaw: float = 0.0,
+                       with_top: bool = True) -> tuple[Box2D, np.ndarray, np.ndarray | None]:
+    """Window, (h, w) bool silhouette and (h, w) bool upward surface (upward_surface) of a primitive, one ray cast;
+    the upward surface None when not ``with_top``."""
+    if not with_top:
+        window, sil = silhouette(camera, kind, centre, size, yaw)
+        return window, sil, None
     window = primitive_window(camera, kind, centre, size)
     directions = window_rays(camera, window)
     depths = ray_depths(camera, kind, centre, size, yaw, window, directions)

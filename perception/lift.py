@@ -138,10 +138,7 @@ def fit_primitive(camera, kind: str, start: np.ndarray, size: float, yaw: float,
     rounds, extra = list(radii), 0
     while rounds:
         radius = rounds.pop(0)
-        if free_top:
-            window, sil, top = silhouette_and_top(camera, kind, centre, size, yaw)
-        else:
-            (window, sil), top = silhouette(camera, kind, centre, size, yaw), None
+        window, sil, top = silhouette_and_top(camera, kind, centre, size, yaw, with_top=free_top)
         if window.empty or not sil.any():
             return Fit(centre, yaw, 0.0, 0)
         ev = evidence_window(labels, detection, window.top - radius, window.bottom + radius,

@@ -61,6 +61,7 @@ LINK_SPEED_SLACK = 1.5  # the jump across a gap may be this much more than the f
 JUMP_M = 0.25  # m between consecutive frames: more than any object moves (4 m/s is 0.16 m/frame) ...
 JUMP_CONFIRM = 3  # ... with this many centres on each side holding their own course: another thing (_jump_cuts)
 MAX_JUMP_TRANSITION = 1  # samples between the two courses (a segment of both things at the frame of the jump)
+COLOUR_RUN_FRAMES = 5  # detections of one hue label on each side of a label change for it to be a colour cut's candidate
 MAX_SPEED = 0.2  # m/frame (5 m/s at 25 fps): ... but never more than this per frame
 MAX_LINK_APPEARANCE = 0.3  # appearance_distance above which two tracklets are different objects (red vs blue, not red vs brown)
 SHAPE_MISMATCH_COST = 0.5  # added link cost when the tracklets were read as different shapes
@@ -178,8 +179,9 @@ class PrimitiveLifter:
         for track in iterator:
             result = self._lift_track(frames, segments, track, camera)
             pieces = [(track, result)]
-            cuts = [] if result is None else _jump_cuts(result[0], track)
-            if cuts:  # the tracklet took another thing's segments from each cut on: each piece is lifted on its own
+            jumps = [] if result is None else _jump_cuts(result[0], track)
+            cuts = sorted(jumps + [c for c in _colour_cuts(track, frames) if all(abs(c - j) >= COLOUR_RUN_FRAMES for j in jumps)])
+            if cuts:  # the tracklet took another thing's segments (or colour) from each cut on: each piece is lifted on its own
                 bounds = [min(track.detections), *cuts, max(track.detections) + 1]
                 runs = [[f for f in sorted(track.detections) if lo <= f < hi] for lo, hi in zip(bounds, bounds[1:])]
                 pieces = []
@@ -246,6 +248,38 @@ def _jump_cuts(track: LiftedTrack, state: TrackState) -> list[int]:
         else:
             k += 1
     return cuts
+
+
+def _colour_cuts(track: TrackState, frames: np.ndarray) -> list[int]:
+    """Frames from which a tracklet shows another object's colour: at a change of its detections' hue label
+    between runs of at least COLOUR_RUN_FRAMES detections, the appearance (track_appearance) of all its
+    detections before and of all from there on differ by more than MAX_LINK_APPEARANCE, the difference at
+    which association refuses to join two tracklets. The tracker lets a track take a segment of another hue
+    label next to where it was (a colour re-read at a contact); when that segment is a touching object of
+    another colour, the track follows that object from then on and the object's own track ends, with no jump
+    in position. A re-read that returns to the object's colour (a metal body mirroring a neighbour) leaves
+    the appearance after the change the object's own. The largest such difference cuts, and each piece is
+    looked at again (frames: (F, H, W, 3) uint8)."""
+    seen = sorted(track.detections)
+    runs: list[list[int]] = []  # [hue label, index of the first detection, detections]
+    for k, frame in enumerate(seen):
+        label = track.detections[frame].hue_label
+        if runs and runs[-1][0] == label:
+            runs[-1][2] += 1
+        else:
+            runs.append([label, k, 1])
+    long = [run for run in runs if run[2] >= COLOUR_RUN_FRAMES]
+    changes = [after[1] for before, after in zip(long, long[1:]) if before[0] != after[0]]
+    best, cut = MAX_LINK_APPEARANCE, None
+    for k in changes:
+        distance = appearance_distance(track_appearance(track_piece(track, seen[:k]), frames),
+                                       track_appearance(track_piece(track, seen[k:]), frames))
+        if distance > best:
+            best, cut = distance, k
+    if cut is None:
+        return []
+    return (_colour_cuts(track_piece(track, seen[:cut]), frames) + [seen[cut]]
+            + _colour_cuts(track_piece(track, seen[cut:]), frames))
 
 
 def _at_border(track: TrackState) -> bool:

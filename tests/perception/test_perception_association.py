@@ -6,8 +6,9 @@ import numpy as np
 
 from dataclasses import replace
 
-from perception.pipeline import _associate, _jump_cuts, _palette_appearance, _without_strays
+from perception.pipeline import COLOUR_RUN_FRAMES, _associate, _colour_cuts, _jump_cuts, _palette_appearance, _without_strays
 from perception.types import Attributes, Detection, LiftedTrack, TrackState
+from world.types import CLEVR_PALETTE_RGB as PALETTE_RGB
 
 SIZE = 0.2
 
@@ -250,3 +251,39 @@ def test_a_track_inside_its_neighbours_most_of_its_life_is_not_an_object():
     kept = _without_strays([first, second, hopper, touching, passing], SIZE)
     assert [t.id for t in kept] == [0, 1, 3, 4]
     assert len(_associate([first, second, hopper], SIZE)) == 3  # association alone keeps the hopper
+
+
+def _painted_track(paints: list[tuple[str, int]]) -> tuple[TrackState, np.ndarray]:
+    """A tracklet on one 8 x 8 px patch whose pixels have the given palette paints for the given numbers of
+    frames in turn, and its (F, 16, 16, 3) frames; each detection's hue label is its paint's."""
+    from perception.segment import pixel_hue_labels
+
+    total = sum(n for _, n in paints)
+    frames = np.full((total, 16, 16, 3), 90, np.uint8)
+    ys, xs = (a.ravel().astype(np.int32) for a in np.mgrid[4:12, 4:12])
+    detections, frame = {}, 0
+    for paint, count in paints:
+        rgb = np.asarray(PALETTE_RGB[paint], np.uint8)
+        label = int(np.bincount(pixel_hue_labels(rgb[None]) + 1).argmax()) - 1
+        for _ in range(count):
+            frames[frame][ys, xs] = rgb
+            detections[frame] = Detection(frame, ys, xs, label, False, 0)
+            frame += 1
+    return TrackState(0, detections[0].hue_label, detections=detections, ground={f: np.zeros(2) for f in detections}), frames
+
+
+def test_a_tracklet_that_takes_on_another_objects_colour_is_cut_there_and_a_reread_is_not():
+    # fresh held-out set 52525, scene 85: a red cube's track took the grey cube it touched (a segment of another
+    # hue label next to it, which the tracker allows at a contact) and followed it for the rest of the video
+    # with no jump in position; cut where the grey starts
+    took_grey, frames = _painted_track([("red", 45), ("gray", 80)])
+    assert _colour_cuts(took_grey, frames) == [45]
+    # a metal body mirroring a purple neighbour for 7 frames, then its own red again: the track is one object
+    mirrored, frames = _painted_track([("red", 20), ("purple", 7), ("red", 70)])
+    assert _colour_cuts(mirrored, frames) == []
+    # red read as brown from a contact on (appearance 0.15-0.25 apart): association would join them, so no cut
+    reread, frames = _painted_track([("red", 40), ("brown", 60)])
+    assert _colour_cuts(reread, frames) == []
+    # another colour for fewer than COLOUR_RUN_FRAMES detections at the end: not enough to cut
+    brief, frames = _painted_track([("red", 60), ("blue", COLOUR_RUN_FRAMES - 1)])
+    assert _colour_cuts(brief, frames) == []

@@ -21,6 +21,7 @@ import numpy as np
 from world.footprint import footprint_gap
 from world.identify.local_fit import fit_slide
 from world.observations import ObjectTrack, Observations
+from world.types import Shape
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of
 
 # Footprints whose bounding circles come within this gap (metres) at a
@@ -71,6 +72,9 @@ MIN_MOVING_WINDOWS = 12
 # motion), touch: a collision however little either velocity changes.
 # Covers the rounding of positions (0.1 mm) and of the yaw of a cube.
 TOUCH_GAP = 0.0015
+# Perceived tracks whose footprints (fitted cube yaw) come within this gap (m) show the two touching
+# (seen_touching): a perceived centre is 1-2 cm off (p90), so two of them may be 3 cm apart at a touch.
+SEEN_TOUCH_GAP = 0.03
 # Sub-frame times (share of a frame after each frame) at which the motion
 # continued from the frame is tested for a touch between two frames.
 SUB_FRAME_STEPS = (0.25, 0.5, 0.75)
@@ -253,9 +257,32 @@ def _courses_into(track: ObjectTrack, frame: int) -> list[np.ndarray]:
 
 
 def seen_touching(track: ObjectTrack, other: ObjectTrack, frame: int) -> bool:
-    """The two tracks show their bodies touching near ``frame``: bounding circles within CONTACT_MARGIN on a
-    frame within +-2 of it where both are seen (``_gap``)."""
-    return _gap(track, other, frame) <= CONTACT_MARGIN
+    """The two tracks show their bodies touching near ``frame``: footprints within SEEN_TOUCH_GAP on a frame
+    within +-2 of it where both are seen (a cube's square at its track's yaw; its bounding circle where the
+    track has no yaw there). Bounding circles would over-reach: two cubes face to face 15 cm apart have
+    touching bounding circles."""
+    for probe in range(frame - 2, frame + 3):
+        here, there = _position_at(track, probe), _position_at(other, probe)
+        if here is None or there is None:
+            continue
+        shapes, yaws = zip(*(_footprint_at(body, probe) for body in (track, other)))
+        gap = footprint_gap(shapes[0], np.array([[*here, 0.0]]), np.array([yaws[0]]),
+                            shapes[1], np.array([[*there, 0.0]]), np.array([yaws[1]]))
+        if float(gap[0]) <= SEEN_TOUCH_GAP:
+            return True
+    return False
+
+
+def _footprint_at(track: ObjectTrack, frame: int) -> tuple[Shape, float]:
+    """The body's footprint shape and yaw (rad) near ``frame``: a cube's yaw from its nearest observed sample;
+    a cube without one there stands for its bounding circle."""
+    if track.shape.kind != "cube":
+        return track.shape, 0.0
+    frames = track.frames[track.observed]
+    yaw = float(track.yaw[track.observed][np.argmin(np.abs(frames - frame))]) if frames.size else float("nan")
+    if np.isfinite(yaw):
+        return track.shape, yaw
+    return Shape("cylinder", radius=track.shape.bounding_radius, half_height=track.shape.half_extent), 0.0
 
 
 def _position_at(track: ObjectTrack, frame: int) -> np.ndarray | None:

@@ -61,7 +61,8 @@ LINK_SPEED_SLACK = 1.5  # the jump across a gap may be this much more than the f
 JUMP_M = 0.25  # m between consecutive frames: more than any object moves (4 m/s is 0.16 m/frame) ...
 JUMP_CONFIRM = 3  # ... with this many centres on each side holding their own course: another thing (_jump_cuts)
 MAX_JUMP_TRANSITION = 1  # samples between the two courses (a segment of both things at the frame of the jump)
-COLOUR_RUN_FRAMES = 5  # detections of one hue label on each side of a label change for it to be a colour cut's candidate
+COLOUR_RUN_FRAMES = 10  # detections of one hue label on each side of a label change for it to be a colour cut's candidate
+                        # (fewer give a noisy appearance: one brown cube's 5 frames read yellow and 9 read brown were 0.37 apart)
 MAX_SPEED = 0.2  # m/frame (5 m/s at 25 fps): ... but never more than this per frame
 MAX_LINK_APPEARANCE = 0.3  # appearance_distance above which two tracklets are different objects (red vs blue, not red vs brown)
 SHAPE_MISMATCH_COST = 0.5  # added link cost when the tracklets were read as different shapes

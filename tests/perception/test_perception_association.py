@@ -278,8 +278,8 @@ def test_a_tracklet_that_takes_on_another_objects_colour_is_cut_there_and_a_rere
     # with no jump in position; cut where the grey starts
     took_grey, frames = _painted_track([("red", 45), ("gray", 80)])
     assert _colour_cuts(took_grey, frames) == [45]
-    # a metal body mirroring a purple neighbour for 7 frames, then its own red again: the track is one object
-    mirrored, frames = _painted_track([("red", 20), ("purple", 7), ("red", 70)])
+    # a metal body mirroring a purple neighbour for 12 frames, then its own red again: the track is one object
+    mirrored, frames = _painted_track([("red", 20), ("purple", 12), ("red", 70)])
     assert _colour_cuts(mirrored, frames) == []
     # red read as brown from a contact on (appearance 0.15-0.25 apart): association would join them, so no cut
     reread, frames = _painted_track([("red", 40), ("brown", 60)])

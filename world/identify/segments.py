@@ -21,8 +21,8 @@ import numpy as np
 from world.footprint import footprint_gap
 from world.identify.local_fit import fit_slide
 from world.observations import ObjectTrack, Observations
-from world.types import Shape
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of
+from world.types import Shape
 
 # Footprints whose bounding circles come within this gap (metres) at a
 # change point may be touching. Cubes' bounding circles over-reach, so

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import replace
+from itertools import groupby
 from pathlib import Path
 
 import numpy as np
@@ -262,13 +263,11 @@ def _colour_cuts(track: TrackState, frames: np.ndarray) -> list[int]:
     the appearance after the change the object's own. The largest such difference cuts, and each piece is
     looked at again (frames: (F, H, W, 3) uint8)."""
     seen = sorted(track.detections)
-    runs: list[list[int]] = []  # [hue label, index of the first detection, detections]
-    for k, frame in enumerate(seen):
-        label = track.detections[frame].hue_label
-        if runs and runs[-1][0] == label:
-            runs[-1][2] += 1
-        else:
-            runs.append([label, k, 1])
+    runs, first = [], 0  # (hue label, index of the run's first detection, detections)
+    for label, run in groupby(track.detections[frame].hue_label for frame in seen):
+        count = sum(1 for _ in run)
+        runs.append((label, first, count))
+        first += count
     long = [run for run in runs if run[2] >= COLOUR_RUN_FRAMES]
     changes = [after[1] for before, after in zip(long, long[1:]) if before[0] != after[0]]
     best, cut = MAX_LINK_APPEARANCE, None

@@ -56,6 +56,8 @@ EXTRAPOLATION_BASE = 4  # frames at a track's end whose motion is extrapolated t
 MAX_EXTRAPOLATED_FRAMES = 10
 MAX_LINK_GAP = 40  # frames: longest gap (occlusion, lost detection) across which two tracklets are joined
 LINK_OVERLAP = 2  # samples two linked tracklets may hold where they overlap (strays one was born on or the other ended on; left out)
+CLEAN_WEIGHT = 0.65  # a sample at least this good was fitted on a segment of its own (touching: x 0.6, split: x 0.3)
+WEAK_STRAY_SHARE = 0.5  # of LINK_OVERLAP a left-out sample below CLEAN_WEIGHT takes: at a contact the pieces overlap by a few such
 LINK_GATE = 0.45  # m: largest distance between a tracklet's predicted position and the next one's start ...
 LINK_GATE_PER_FRAME = 0.02  # ... plus this per frame of gap (the prediction is held after 5 frames)
 LINK_SPEED_SLACK = 1.5  # the jump across a gap may be this much more than the faster tracklet end's speed allows ...
@@ -495,13 +497,14 @@ def _linked_pair(earlier: LiftedTrack, later: LiftedTrack,
     Where the two overlap, the link is split at one frame s: ``earlier`` keeps its samples before s,
     ``later`` its samples from s on; s ranges over the overlap, and at most LINK_OVERLAP samples may be left
     out (cheapest first, then fewest): the strays ``later``'s tracker track was born on, the strays
-    ``earlier``'s ended on, or some of each; more, and the two are seen at once: not one object's pieces
-    in turn."""
+    ``earlier``'s ended on, or some of each; a sample fitted on a touching or split segment (weight below
+    CLEAN_WEIGHT) counts WEAK_STRAY_SHARE of one (at a contact the tracker's two pieces of one object
+    overlap by a few such samples); more, and the two are seen at once: not one object's pieces in turn."""
     splits = np.union1d(later.frames[later.frames <= earlier.frames[-1]], earlier.frames[earlier.frames >= later.frames[0]])
     options = []
     for split in np.append(splits, earlier.frames[-1] + 1):
         kept_earlier, kept_later = earlier.frames < split, later.frames >= split
-        left_out = int(np.count_nonzero(~kept_earlier) + np.count_nonzero(~kept_later))
+        left_out = _stray_count(earlier.weights[~kept_earlier]) + _stray_count(later.weights[~kept_later])
         if left_out > LINK_OVERLAP or np.count_nonzero(kept_earlier) < 2 or np.count_nonzero(kept_later) < 2:
             continue
         trimmed_earlier, trimmed_later = _samples(earlier, kept_earlier), _samples(later, kept_later)
@@ -512,6 +515,12 @@ def _linked_pair(earlier: LiftedTrack, later: LiftedTrack,
         return None
     cost, _, trimmed_earlier, trimmed_later = min(options, key=lambda option: option[:2])
     return cost, trimmed_earlier, trimmed_later
+
+
+def _stray_count(weights: np.ndarray) -> float:
+    """What left-out samples of these (n,) weights take of LINK_OVERLAP (_linked_pair)."""
+    weak = int(np.count_nonzero(weights < CLEAN_WEIGHT))
+    return weights.size - weak + WEAK_STRAY_SHARE * weak
 
 
 def _motion_and_appearance_cost(earlier: LiftedTrack, later: LiftedTrack, appearance: dict[int, np.ndarray]) -> float:
@@ -682,7 +691,6 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
     return result
 
 
-CLEAN_WEIGHT = 0.65  # a sample at least this good was fitted on a segment of its own (touching: x 0.6, split: x 0.3)
 CONTACT_SIZES = 3.0  # a contact episode of two tracks brings their centres closer than this many object sizes
 CONTACT_WINDOW = 4  # clean samples of a track next to a contact that give its motion ...
 WINDOW_SPAN = 10  # ... taken within this many frames of the contact

@@ -191,6 +191,28 @@ def test_a_link_leaves_out_a_stray_on_each_side_of_one_split_frame():
     assert len(_associate([two_strays, ends_on_stray], SIZE)) == 2
 
 
+def test_strays_fitted_on_touching_segments_count_half():
+    # fresh seed 41414, scene 46: a cyan sphere hits a green cube; its tracklet ends at frame 18 on the cube (a
+    # touching segment, weight 0.6) and the one that carries it on was born on the cube at 15 and 16 (0.6, 0.49):
+    # three strays, each a touching segment's, at a contact
+    def with_strays(track, frames, positions, weights, at_end):
+        join = (lambda a, b: np.concatenate([a, b])) if at_end else (lambda a, b: np.concatenate([b, a]))
+        count = len(track.frames) + len(frames)
+        return replace(track, frames=join(track.frames, np.asarray(frames)), positions=join(track.positions, np.asarray(positions)),
+                       yaw=np.full(count, np.nan), visible=np.ones(count, bool), weights=join(track.weights, np.asarray(weights)))
+
+    before = _tracklet(0, range(0, 18), (0.0, 0.0), (0.05, 0.0), color="cyan")
+    after = _tracklet(1, range(19, 128), (0.05 * 19, 0.0), (0.05, 0.0), color="cyan")
+    on_cube = [[0.95, 0.4, SIZE]]
+    ends_on_cube = with_strays(before, [18], on_cube, [0.6], at_end=True)
+    born_on_cube = with_strays(after, [15, 16], on_cube * 2, [0.6, 0.49], at_end=False)
+    (joined,) = _associate([born_on_cube, ends_on_cube], SIZE)
+    assert np.array_equal(joined.frames, np.delete(np.arange(128), 18)) and np.allclose(joined.positions[:, 1], 0.0)
+    # the same three samples fitted on segments of their own: seen at once, two objects
+    clean = [with_strays(before, [18], on_cube, [1.0], at_end=True), with_strays(after, [15, 16], on_cube * 2, [1.0, 1.0], at_end=False)]
+    assert len(_associate(clean, SIZE)) == 2
+
+
 def _state(track: LiftedTrack) -> TrackState:
     detection = Detection(0, np.zeros(1, np.int32), np.zeros(1, np.int32), 0, False, 0)
     return TrackState(track.id, 0, detections={int(f): detection for f in track.frames},

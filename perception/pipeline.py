@@ -696,6 +696,7 @@ CONTACT_WINDOW = 4  # clean samples of a track next to a contact that give its m
 WINDOW_SPAN = 10  # ... taken within this many frames of the contact
 MAX_CONTACT_FRAMES = 20  # longer episodes are left alone (friction bends a straight-line extrapolation)
 SWAP_MARGIN = 0.5  # object sizes: the crossed assignment must join the motions this much better
+SOLID_SIZES = 1.0  # object sizes: a pairing whose two objects' relative position, joined straight over a contact, comes closer passes one through the other
 
 
 def _line_at(track: LiftedTrack, rows: np.ndarray, frame: float) -> np.ndarray:
@@ -750,7 +751,10 @@ def _crossed_at_contact(a: LiftedTrack, b: LiftedTrack, episode: tuple[int, int]
     between, must meet (a collision changes velocities, not positions; an occlusion neither). The
     tracker predicts through a contact at constant velocity and hands the identities back crossed
     when the mover stops and the one hit goes on, or when a lost track takes the other object;
-    then the crossed pairing joins both motions much better.
+    then the crossed pairing joins both motions much better. Unless the crossed pairing has the two
+    objects pass through each other: their relative position as the contact begins, joined straight
+    to the one as it ends, comes within SOLID_SIZES sizes of zero (two objects that meet head-on and
+    bounce back join straight-line motions better crossed, yet solid bodies keep their sides).
     """
     first, last = episode
     sides_a, sides_b = _sides(a, first, last), _sides(b, first, last)
@@ -761,7 +765,18 @@ def _crossed_at_contact(a: LiftedTrack, b: LiftedTrack, episode: tuple[int, int]
     crossed = _join_miss(a, a_in, b, b_out) + _join_miss(b, b_in, a, a_out)
     if crossed + SWAP_MARGIN * size >= kept:
         return None
+    before = _line_at(a, a_in, first) - _line_at(b, b_in, first)  # a's object relative to b's as the contact begins
+    after = _line_at(b, b_out, last) - _line_at(a, a_out, last)  # ... and as it ends, were the identities crossed
+    if _closest_to_zero(before, after) < SOLID_SIZES * size:
+        return None
     return _uncrossed(a, b, first, last, (a_in, b_out), (b_in, a_out))
+
+
+def _closest_to_zero(start: np.ndarray, end: np.ndarray) -> float:
+    """m: distance from the origin of the segment from (2,) ``start`` to (2,) ``end``."""
+    step = end - start
+    share = float(np.clip(-start @ step / max(float(step @ step), 1e-12), 0.0, 1.0))
+    return float(np.linalg.norm(start + share * step))
 
 
 def _uncrossed(a: LiftedTrack, b: LiftedTrack, first: int, last: int, motion_a: tuple[np.ndarray, np.ndarray],

@@ -69,10 +69,14 @@ def evaluate_scene(root: Path, index: int, e2e: bool, build: bool = True) -> dic
     camera = load_camera(root / "ground_truth" / f"scene_{name}.json")
     began, began_cpu = time.perf_counter(), time.process_time()
     frames, fps = read_video(root / "videos" / f"video_{name}.mp4")
-    observations, inter = perceive_frames(frames, camera, fps=fps)
+    try:
+        observations, inter = perceive_frames(frames, camera, fps=fps)
+        refused = None
+    except ValueError as error:  # perception refused the video: every object counts as missed, the table says so
+        observations, inter, refused = None, {"lifted": [], "timings": {}}, str(error)
     wall, cpu = time.perf_counter() - began, time.process_time() - began_cpu
     fit_cpu = None
-    if build:  # what `physmind build` adds to perceive (physmind.pipeline.build_world): the fit and the world document
+    if build and observations is not None:  # what `physmind build` adds to perceive (physmind.pipeline.build_world): the fit and the world document
         fit_began = time.process_time()
         world_to_dict(identify(observations)[0])
         fit_cpu = time.process_time() - fit_began
@@ -174,8 +178,9 @@ def evaluate_scene(root: Path, index: int, e2e: bool, build: bool = True) -> dic
         "objects": len(true_ids), "tracks": len(pred_ids), "missed_objects": missed_objects,
         "timings": inter["timings"], "event_errors": event_errors, "event_signed": event_signed,
         "condition": _condition(json.loads((root / "ground_truth" / f"scene_{name}.json").read_text())),
+        "refused": refused,
     }
-    if e2e:
+    if e2e and observations is not None:
         relabelled = []
         for track in observations.objects:
             pi = pred_ids.index(track.id)
@@ -254,7 +259,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.from_json:
         results = [r for path in args.from_json for r in json.loads(path.read_text())]
         args.root = ", ".join(str(path) for path in args.from_json)
-        args.no_e2e = not all("e2e" in r for r in results)
+        args.no_e2e = not all("e2e" in r for r in results if not r.get("refused"))
     elif args.root is None:
         parser.error("give a dataset directory or --from-json")
     else:
@@ -265,7 +270,7 @@ def main(argv: list[str] | None = None) -> int:
         return sum(r[key][0] for r in results), sum(r[key][1] for r in results)
 
     recall, precision = total("recall"), total("precision")
-    errors = np.concatenate([r["errors"] for r in results if r["errors"]]) if results else np.zeros(0)
+    errors = np.concatenate([np.asarray(r["errors"], dtype=float) for r in results if r["errors"]] or [np.zeros(0)])
     walls = np.array([r["wall_s"] for r in results])
     print(f"\nperception on {len(results)} videos of {args.root}")
     print("| metric | value | target |\n|---|---|---|")
@@ -274,13 +279,16 @@ def main(argv: list[str] | None = None) -> int:
     print(f"| identity switches | {sum(r['switches'] for r in results)} in {len(results)} videos | <= 1 per 20 videos |")
     print(f"| fragmented objects | {sum(r['fragmented'] for r in results)} of {sum(r['objects'] for r in results)} | |")
     print(f"| objects without a track | {sum(r['missed_objects'] for r in results)} | |")
+    refused = [r for r in results if r.get("refused")]
+    reasons = "".join(f"; scene {r['scene']}: {r['refused']}" for r in refused)
+    print(f"| videos perception refused (error) | {len(refused)}{reasons} | 0 |")
     print(f"| spurious tracks | {sum(max(r['tracks'] - (r['objects'] - r['missed_objects']), 0) for r in results)} | |")
     if errors.size:
         print(f"| position error median (radii) | {np.median(errors):.3f} | <= 0.1 |")
         print(f"| position error p95 (radii) | {np.percentile(errors, 95):.3f} | |")
     for key, target in (("color", 0.98), ("shape", 0.95), ("material", 0.90)):
         hits = [h for r in results for h in r["attributes"][key]]
-        print(f"| {key} accuracy | {np.mean(hits):.4f} ({sum(hits)}/{len(hits)}) | >= {target} |")
+        print(f"| {key} accuracy | {sum(hits) / max(len(hits), 1):.4f} ({sum(hits)}/{len(hits)}) | >= {target} |")
     features = [f for r in results for f in r["attributes"].get("features", [])]
     if features:  # (true shape, true material, decided shape, P(metal), shape score) per matched track
         truth_metal = np.array([f[1] == "metal" for f in features])
@@ -300,9 +308,10 @@ def main(argv: list[str] | None = None) -> int:
     print(f"| wall time per video (s) median / max (decode + perceive) | {np.median(walls):.2f} / {walls.max():.2f} | <= 3 / <= 8 |")
     cpus = np.array([r["cpu_s"] for r in results])
     print(f"| CPU time per video (s) median / max (decode + perceive; what an unloaded core would take) | {np.median(cpus):.2f} / {cpus.max():.2f} | <= 3 / <= 8 |")
-    fits = np.array([r["fit_cpu_s"] for r in results if r.get("fit_cpu_s") is not None])
-    if fits.size == len(results):
-        builds = cpus + fits
+    built = [r for r in results if r.get("fit_cpu_s") is not None]
+    if built and len(built) == len(results) - len(refused):
+        fits = np.array([r["fit_cpu_s"] for r in built])
+        builds = np.array([r["cpu_s"] for r in built]) + fits
         print(f"| fit CPU time per video (s) median / max (identify + world document) | {np.median(fits):.2f} / {fits.max():.2f} | |")
         print(f"| build CPU time per video (s) median / max (decode + perceive + fit, `physmind build`) | {np.median(builds):.2f} / {builds.max():.2f} | median <= 5 |")
     if not args.from_json:
@@ -317,15 +326,17 @@ def main(argv: list[str] | None = None) -> int:
             acc = {k: np.mean([h for r in group for h in r["attributes"][k]] or [np.nan]) for k in ("color", "shape", "material")}
             print(f"| {key} | {len(group)} | {sum(r['objects'] for r in group)} | {rec[0] / rec[1]:.3f} | {sum(r['switches'] for r in group)} "
                   f"| {acc['color']:.3f} | {acc['shape']:.3f} | {acc['material']:.3f} |")
-    stage = {k: np.median([r["timings"][k] for r in results]) for k in results[0]["timings"]}
+    timed = [r for r in results if r["timings"]]
+    stage = {k: np.median([r["timings"][k] for r in timed]) for k in (timed[0]["timings"] if timed else {})}
     print("| stage medians (s) | " + ", ".join(f"{k} {v:.2f}" for k, v in stage.items()) + " | |")
     if not args.no_e2e:
         print("\nend to end (identify -> score_world), summed over videos")
         print("| tracks | predictive F1 | counterfactual F1 | median RMSE (m) |\n|---|---|---|---|")
         for which in ("oracle", "perceived"):
-            pred = [sum(r["e2e"][which]["predictive"][k] for r in results) for k in range(3)]
-            cf = [sum(r["e2e"][which]["counterfactual"][k] for r in results) for k in range(3)]
-            rmse = np.nanmedian([r["e2e"][which]["rmse"] for r in results])
+            scored = [r for r in results if "e2e" in r]
+            pred = [sum(r["e2e"][which]["predictive"][k] for r in scored) for k in range(3)]
+            cf = [sum(r["e2e"][which]["counterfactual"][k] for r in scored) for k in range(3)]
+            rmse = np.nanmedian([r["e2e"][which]["rmse"] for r in scored])
             print(f"| {which} | {_f1(*pred):.3f} | {_f1(*cf):.3f} | {rmse:.3f} |")
     worst = sorted(results, key=lambda r: (r["switches"] + r["fragmented"] + r["missed_objects"],
                                            -(r["recall"][0] / max(r["recall"][1], 1))), reverse=True)[: args.worst]

@@ -27,3 +27,33 @@ def test_shape_confusions_count_only_the_wrong_decisions_most_frequent_first():
                 ("sphere", "rubber", "sphere", 0.1, 0.9), ("cube", "metal", "cylinder", 0.7, 0.7)]
     assert shape_confusions(features) == "cylinder -> cube 2, cube -> cylinder 1"
     assert shape_confusions(features[2:3]) == "none"
+
+
+def test_a_video_perception_refuses_counts_its_objects_as_missed_and_the_run_goes_on(tmp_path, capsys):
+    # fresh held-out set 63636, scene 54: main's blank check refused a real video and the bench stopped with a traceback
+    import json
+    import shutil
+    from fractions import Fraction
+    from pathlib import Path
+
+    import av
+    import numpy as np
+
+    from bench.bench_perception import main
+
+    data = Path(__file__).resolve().parents[1] / "data" / "synth"
+    for folder, name in (("ground_truth", "scene_00000.json"), ("masks", "proposal_00000.json"), ("annotations", "annotation_00000.json")):
+        (tmp_path / folder).mkdir()
+        shutil.copy(data / folder / name, tmp_path / folder / name)
+    (tmp_path / "videos").mkdir()
+    with av.open(str(tmp_path / "videos" / "video_00000.mp4"), mode="w") as container:  # black frames
+        stream = container.add_stream("libx264", rate=Fraction(25))
+        stream.width, stream.height, stream.pix_fmt = 480, 320, "yuv420p"
+        for _ in range(8):
+            container.mux(stream.encode(av.VideoFrame.from_ndarray(np.zeros((320, 480, 3), np.uint8), format="rgb24")))
+        container.mux(stream.encode())
+    out = tmp_path / "results.json"
+    assert main([str(tmp_path), "--no-e2e", "--no-build", "--json", str(out)]) == 0
+    (result,) = json.loads(out.read_text())
+    assert "blank" in result["refused"] and result["missed_objects"] == result["objects"] > 0
+    assert "| videos perception refused (error) | 1; scene 0: video: the frames are blank" in capsys.readouterr().out

@@ -55,6 +55,19 @@ def test_black_video_is_a_clear_error(tmp_path):
         perceive(path, load_camera(TRUTH))
 
 
+def test_small_objects_on_a_flat_floor_are_not_blank():
+    # fresh held-out set 63636, scene 54: a flat grey floor without shadows, objects under 1 % of the pixels
+    from perception.pipeline import check_frames
+
+    rng = np.random.default_rng(3)
+    frames = np.clip(183 + rng.normal(0, 1.0, (16, 320, 480, 3)), 0, 255).astype(np.uint8)
+    for k, image in enumerate(frames):
+        image[280:300, 100 + 8 * k:120 + 8 * k] = (225, 205, 40)  # a 20 px yellow object crossing the view
+    check_frames(frames, load_camera(TRUTH))  # no error
+    with pytest.raises(ValueError, match="blank"):
+        check_frames(np.full_like(frames, 183), load_camera(TRUTH))
+
+
 def test_static_video_with_objects_is_a_clear_error(tmp_path):
     frames, _ = read_video(DATA / "videos" / "video_00007.mp4", max_frames=1)
     path = tmp_path / "still.mp4"

@@ -906,9 +906,9 @@ def _renumber(lifted: list[LiftedTrack]) -> list[LiftedTrack]:
     return [replace(t, id=k) for k, t in enumerate(ordered)]
 
 
-MIN_CONTRAST = 4.0  # grey levels: a pixel this far from its frame's median colour is not that colour (see MOVING_PIXELS)
+BLANK_DIFFERENCE = 4.0  # grey levels: a pixel this far from its frame's median colour is not that colour (see MOVING_PIXELS)
 MOVING_PIXELS = 60  # px: a frame with fewer pixels than this off the video's median image shows no motion (off its own
-# median colour by MIN_CONTRAST: shows nothing, blank)
+# median colour by BLANK_DIFFERENCE: shows nothing, blank)
 MOVING_DIFFERENCE = 12  # grey levels: a pixel this far from the video's median changed
 
 
@@ -928,9 +928,9 @@ def check_frames(frames: np.ndarray, camera: Camera) -> None:
     sample = frames[:: max(1, frames.shape[0] // 16), ::2, ::2].astype(np.float32)  # enough for both checks, cheap
     # Blank: no frame has MOVING_PIXELS off its own median colour (a small object on a flat floor is under
     # 1 % of the pixels, so a percentile spread would call it blank).
-    off_colour = (np.abs(sample - np.median(sample, axis=(1, 2), keepdims=True)).max(axis=-1) > MIN_CONTRAST).sum(axis=(1, 2)) * 4
+    off_colour = (np.abs(sample - np.median(sample, axis=(1, 2), keepdims=True)).max(axis=-1) > BLANK_DIFFERENCE).sum(axis=(1, 2)) * 4  # full-size px
     if int(off_colour.max()) < MOVING_PIXELS:
-        raise ValueError(f"video: the frames are blank (no frame has {MOVING_PIXELS} px more than {MIN_CONTRAST:.0f} grey levels off "
+        raise ValueError(f"video: the frames are blank (no frame has {MOVING_PIXELS} px more than {BLANK_DIFFERENCE:.0f} grey levels off "
                          "its own colour; black or a single colour): nothing to perceive")
     median = np.median(sample, axis=0)
     changed = (np.abs(sample - median).max(axis=-1) > MOVING_DIFFERENCE).sum(axis=(1, 2)) * 4  # full-size px

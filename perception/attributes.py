@@ -40,11 +40,23 @@ SHAPE_TEMPERATURE = 0.049  # on mean shape overlaps in [0, 1] (shape_overlap; lo
 
 
 def color_votes(detections: list[Detection], frames: np.ndarray) -> np.ndarray:
-    """(len(COLORS) + 1,) pixel counts per palette label over the detections; index 0 = NEUTRAL (no hue), k + 1 = COLORS[k]."""
-    votes = np.zeros(len(COLORS) + 1)
+    """(len(COLORS) + 1,) votes per palette label over the detections' pixels; index 0 = NEUTRAL (no hue), k + 1 = COLORS[k].
+
+    NEUTRAL gets the count of hue-less pixels; the hued pixels' count is shared among the hues in proportion
+    to their pixels' squared saturation ((max - min) / max of the channels). A pixel mixes the paint with
+    white light (a highlight, a metal's reflection) or the floor at an edge; the mix keeps the paint's hue
+    but pulls the chromaticity towards grey, where a desaturated red lies nearer brown's than red's: the
+    saturated pixels show the paint."""
+    counts, saturated = np.zeros(len(COLORS) + 1), np.zeros(len(COLORS) + 1)
     for det in detections:
-        labels = pixel_hue_labels(frames[det.frame][det.ys, det.xs], dark_hues=True)
-        votes += np.bincount(labels + 1, minlength=len(COLORS) + 1)
+        rgb = frames[det.frame][det.ys, det.xs]
+        labels = pixel_hue_labels(rgb, dark_hues=True) + 1
+        high, low = rgb.max(axis=1).astype(np.float32), rgb.min(axis=1).astype(np.float32)
+        counts += np.bincount(labels, minlength=len(COLORS) + 1)
+        saturated += np.bincount(labels, weights=((high - low) / np.maximum(high, 1.0)) ** 2, minlength=len(COLORS) + 1)
+    votes = counts.copy()
+    if saturated[1:].sum() > 0:
+        votes[1:] = counts[1:].sum() * saturated[1:] / saturated[1:].sum()
     return votes
 
 

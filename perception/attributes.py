@@ -1,7 +1,8 @@
 """Per-track attributes decided over the whole track from its most isolated frames.
 
-* colour: pixel-count-weighted vote of the per-pixel palette labels
-  (segment.pixel_hue_labels); hue-less tracks are grey.
+* colour: vote of the per-pixel palette labels (segment.pixel_hue_labels),
+  the hued pixels' count shared among the hues by squared saturation
+  (color_votes); hue-less tracks are grey.
 * shape: the primitive (sphere, cube at its best yaw, cylinder) whose
   projected silhouette at the fitted pose overlaps the segments best (lift.py).
 * material: P(metal) of a small classifier on appearance statistics pooled
@@ -9,8 +10,8 @@
   (perception.material_model; its parameters ship as a JSON file).
 
 Beside each decision, a probability per value (what grounding uses when a
-phrase matches no object or several): colour from the share of the track's
-pixels nearest each palette chromaticity, shape from the mean silhouette
+phrase matches no object or several): colour from each hue's share of the
+votes (grey's: the hue-less pixels), shape from the mean silhouette
 overlap of each primitive, colour and shape each sharpened or softened by one temperature
 (COLOR_TEMPERATURE, SHAPE_TEMPERATURE), material from the classifier's
 P(metal), whose temperature is part of the shipped model (fitted on

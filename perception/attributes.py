@@ -25,7 +25,7 @@ import numpy as np
 from perception.background import AMBIGUOUS, FLOOR
 from perception.geometry import silhouette_and_top
 from perception.lift import Fit
-from perception.material_model import appearance_windows, metal_probability
+from perception.material_model import appearance_windows, channel_saturation, metal_probability
 from perception.segment import pixel_hue_labels
 from perception.types import NEUTRAL, Detection, FrameSegments
 from world.types import COLORS, MATERIALS, SHAPE_KINDS, Camera
@@ -44,7 +44,7 @@ def color_votes(detections: list[Detection], frames: np.ndarray) -> np.ndarray:
     """(len(COLORS) + 1,) votes per palette label over the detections' pixels; index 0 = NEUTRAL (no hue), k + 1 = COLORS[k].
 
     NEUTRAL gets the count of hue-less pixels; the hued pixels' count is shared among the hues in proportion
-    to their pixels' squared saturation ((max - min) / max of the channels). A pixel mixes the paint with
+    to their pixels' squared saturation (material_model.channel_saturation). A pixel mixes the paint with
     white light (a highlight, a metal's reflection) or the floor at an edge; the mix keeps the paint's hue
     but pulls the chromaticity towards grey, where a desaturated red lies nearer brown's than red's: the
     saturated pixels show the paint."""
@@ -54,7 +54,7 @@ def color_votes(detections: list[Detection], frames: np.ndarray) -> np.ndarray:
         labels = pixel_hue_labels(rgb, dark_hues=True) + 1
         high, low = rgb.max(axis=1).astype(np.float32), rgb.min(axis=1).astype(np.float32)
         counts += np.bincount(labels, minlength=len(COLORS) + 1)
-        saturated += np.bincount(labels, weights=((high - low) / np.maximum(high, 1.0)) ** 2, minlength=len(COLORS) + 1)
+        saturated += np.bincount(labels, weights=channel_saturation(high, low) ** 2, minlength=len(COLORS) + 1)
     votes = counts.copy()
     if saturated[1:].sum() > 0:
         votes[1:] = counts[1:].sum() * saturated[1:] / saturated[1:].sum()

@@ -44,6 +44,12 @@ FRAME_FEATURES = ("specular", "desaturation", "log_body", "peak", "log_high", "l
 TRACK_FEATURES = FRAME_FEATURES + ("flicker",)
 
 
+def channel_saturation(high: np.ndarray, low: np.ndarray) -> np.ndarray:
+    """(P,) saturation in [0, 1] of pixels from their brightest and dimmest channel (grey levels): 1 - low / high
+    (0 grey, 1 a pure hue)."""
+    return 1.0 - low / np.maximum(high, 1.0)
+
+
 @dataclass(frozen=True)
 class AppearanceWindow:
     """One frame's pixels around a segment: rgb (h, w, 3) uint8; interior, ring, segment: (h, w) bool masks
@@ -106,7 +112,7 @@ def frame_features(window: AppearanceWindow, color: str) -> np.ndarray | None:
     white = np.clip(white, 0.0, None)
     body_level = median_high / (paint.max() / 255.0)
     top = np.sort(white)[-max(3, len(white) // PEAK_FRACTION):]
-    saturation = 1.0 - low / np.maximum(high, 1.0)
+    saturation = channel_saturation(high, low)
     # fine detail of the shading: mirror-like surfaces show the scene, matte ones a smooth gradient
     grey = window.rgb.astype(np.float32).mean(axis=2)
     detail = float(np.mean(np.abs(ndi.laplace(ndi.gaussian_filter(grey, 0.7)))[window.interior])) / median_high

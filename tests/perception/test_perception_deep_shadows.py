@@ -112,3 +112,28 @@ def test_resting_shadows_at_the_offset_of_the_videos_other_shadows_are_shadows()
     # two grey objects beside resting ones, at other offsets: objects
     other = _track(6, range(0, 60), (1.0 - 0.3, 0.5 + 0.2), (0.0, 0.0), color="gray")
     assert _kept(first, second, first_shadow, other) == [0, 1, 2, 6]
+
+
+def _joined(track_id: int, pieces: list[LiftedTrack]) -> LiftedTrack:
+    """One track of consecutive pieces (the first piece's attributes)."""
+    frames = np.concatenate([p.frames for p in pieces])
+    return LiftedTrack(track_id, pieces[0].attributes, frames, np.concatenate([p.positions for p in pieces]),
+                       np.full(len(frames), np.nan), np.ones(len(frames), bool), np.ones(len(frames)))
+
+
+def test_a_shadow_cut_by_other_shadows_once_its_caster_rests_is_still_a_shadow():
+    # Blender seed 8181, scene 1: a brown sphere's shadow kept its offset within 4 cm over 2 m of travel, then
+    # lay 15 cm off it for the last quarter of the video, the sphere at rest in a cube's shadow
+    moving = _track(0, range(0, 70), (0.0, 0.0), (0.03, 0.01))
+    caster = _joined(0, [moving, _track(0, range(70, 128), (2.1, 0.7), (0.0, 0.0))])
+    followed = _track(1, range(0, 70), (-0.34, 0.07), (0.03, 0.01), color="gray")
+    cut = _track(1, range(70, 128), (2.1 - 0.34 + 0.15, 0.7 + 0.07), (0.0, 0.0), color="gray")
+    assert _kept(caster, _joined(1, [followed, cut])) == [0]
+    # the same follower, wandering while the caster moves: an object of its own
+    wandering = _track(1, range(0, 70), (-0.34, 0.07), (0.03, 0.0), color="gray")
+    assert _kept(caster, _joined(1, [wandering, cut])) == [0, 1]
+    # pushed ahead of the caster for a short way, then left behind at rest while the caster goes on
+    runner = _track(2, range(0, 128), (0.0, 0.0), (0.03, 0.01))
+    pushed = _track(3, range(0, 20), (0.4, 0.13), (0.03, 0.01), color="gray")
+    left = _track(3, range(20, 128), (0.4 + 0.6, 0.13 + 0.2), (0.0, 0.0), color="gray")
+    assert _kept(runner, _joined(3, [pushed, left])) == [2, 3]

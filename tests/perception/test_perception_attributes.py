@@ -4,7 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from perception.attributes import color_probabilities, material_probabilities, shape_probabilities
+from perception.attributes import color_of, color_probabilities, color_votes, material_probabilities, shape_probabilities
+from perception.types import NEUTRAL, Detection
 from world.types import COLORS
 
 def test_attribute_probabilities_are_distributions_that_follow_the_evidence():
@@ -27,8 +28,6 @@ def test_attribute_probabilities_are_distributions_that_follow_the_evidence():
 
 def _painted(pixels: list[tuple[tuple[int, int, int], int]]) -> tuple[list, np.ndarray]:
     """One detection over a frame painted with (rgb, pixel count) runs, 5 grey levels of noise."""
-    from perception.types import NEUTRAL, Detection
-
     rgb = np.concatenate([np.tile(np.asarray(colour, float), (count, 1)) for colour, count in pixels])
     rgb = np.clip(rgb + np.random.default_rng(0).normal(0.0, 5.0, rgb.shape), 0, 255).astype(np.uint8)
     frames = np.zeros((1, 1, len(rgb), 3), np.uint8)
@@ -40,8 +39,6 @@ def _painted(pixels: list[tuple[tuple[int, int, int], int]]) -> tuple[list, np.n
 def test_a_red_metal_with_broad_highlights_is_red_and_a_brown_or_grey_object_keeps_its_colour():
     # fresh held-out set 63636: 7 of its 8 colour errors were red metal objects read brown (beliefs brown 0.43-0.61):
     # red mixed with 20-50 % white light labels brown pixel by pixel (the chromaticity moves towards grey, nearer brown's)
-    from perception.attributes import color_of, color_votes
-
     red_metal = _painted([((173, 35, 35), 400), ((189, 78, 78), 300), ((205, 123, 123), 300)])  # paint, 80 % and 60 % paint
     assert color_of(*red_metal) == "red"  # main: brown
     assert max(color_probabilities(color_votes(*red_metal)).items(), key=lambda kv: kv[1])[0] == "red"

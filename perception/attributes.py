@@ -85,7 +85,7 @@ def material_of(detections: list[Detection], frames: np.ndarray, segments: list[
 
 
 def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: Detection, labels: np.ndarray,
-                  shadow: np.ndarray, free_top: bool = False) -> float:
+                  shadow: np.ndarray, free_top: bool = False, cast_shadow: tuple[np.ndarray, int] | None = None) -> float:
     """J_shape = |S & D| / (|D| + |S & floor| + AMBIGUOUS_WEIGHT |S & ambiguous|) of the primitive's silhouette S
     at its fitted pose and the detection D (labels: the frame's (H, W) pixel labels), in [0, 1]; the
     detection's own shadow (``shadow``: segment.own_shadow's (area,) mask) counts as ambiguous, not as D.
@@ -96,7 +96,10 @@ def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: D
     The fit's own overlap counts shadow-like (ambiguous) pixels neither for nor against, which is right
     for placing a primitive (a grey rubber object is only half certain) but lets a larger primitive win
     the shape decision for free wherever the object stands in its own soft shadow (POV-Ray's area
-    lights: cylinders and spheres read as cubes, docs/benchmarks.md "Material across renderers")."""
+    lights: cylinders and spheres read as cubes, docs/benchmarks.md "Material across renderers").
+    ``cast_shadow`` (lift.shadow_explained: the detection's shadow-like pixels under the fitted primitive's
+    shadow, and how many lie outside it) counts those as S & D, the outside ones in |D| too: the body and its
+    shadow explain the image, as lift.fit_primitive weighs them (a grey segment holds its deep shadow)."""
     window, sil, top = silhouette_and_top(camera, kind, fit.centre, size, fit.yaw, with_top=free_top)
     if window.empty:
         return 0.0
@@ -106,11 +109,16 @@ def shape_overlap(camera: Camera, kind: str, fit: Fit, size: float, detection: D
     covered = np.zeros(detection.area, dtype=bool)
     covered[inside] = sil[ys[inside], xs[inside]]
     hits = float((covered & ~shadow).sum())
+    explained_outside = 0.0
+    if cast_shadow is not None:
+        explained, explained_outside = cast_shadow[0], float(cast_shadow[1])
+        hits += float((explained & ~covered & ~shadow).sum()) + explained_outside
     floor = float((sil & (region == FLOOR)).sum())
     if top is not None:  # floor that may be the object's top weighs as a shadow-like pixel of a coloured object
         floor -= (1.0 - AMBIGUOUS_WEIGHT) * float((top & (region == FLOOR)).sum())
     ambiguous = float((sil & (region == AMBIGUOUS)).sum()) + float((covered & shadow).sum())
-    return hits / (detection.area - float(shadow.sum()) + floor + ambiguous_weight(detection.hue_label == NEUTRAL) * ambiguous)
+    total = detection.area - float(shadow.sum()) + floor + ambiguous_weight(detection.hue_label == NEUTRAL) * ambiguous + explained_outside
+    return hits / total if total > 0 else 0.0  # a segment all shadow: no body to judge
 
 
 def ambiguous_weight(hueless: bool) -> float:

@@ -82,6 +82,28 @@ def image_rays(camera: Camera) -> np.ndarray:
     return rays
 
 
+_FLOOR_POINTS: dict[tuple, np.ndarray] = {}  # camera parameters -> (H, W, 2) floor points of every pixel
+
+
+def floor_points(camera: Camera) -> np.ndarray:
+    """(H, W, 2) read-only world xy (m) where each pixel's ray meets the floor z = 0; NaN at and above the horizon.
+    Computed once per camera (as image_rays)."""
+    key = _camera_key(camera)
+    points = _FLOOR_POINTS.get(key)
+    if points is None:
+        rays = image_rays(camera)
+        origin = np.asarray(camera.position, float)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            scale = -origin[2] / rays[..., 2]
+        scale = np.where(scale > 0, scale, np.nan)
+        points = origin[:2] + rays[..., :2] * scale[..., None]
+        points.flags.writeable = False
+        if len(_FLOOR_POINTS) >= _IMAGE_RAYS_KEPT:
+            _FLOOR_POINTS.pop(next(iter(_FLOOR_POINTS)))
+        _FLOOR_POINTS[key] = points
+    return points
+
+
 def window_rays(camera: Camera, window: Box2D) -> np.ndarray:
     """(h, w, 3) world ray directions of a window's pixels (camera-depth parametrised), shared by ray casts over it:
     a view into image_rays (windows lie inside the image)."""

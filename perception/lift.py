@@ -24,8 +24,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from perception.background import FLOOR
-from perception.geometry import ground_jacobian, primitive_window, ray_depths, silhouette, silhouette_and_top, upward_surface, window_rays
+from perception.background import AMBIGUOUS, DEEP, FLOOR
+from perception.geometry import Box2D, ground_jacobian, primitive_window, ray_depths, silhouette, silhouette_and_top, upward_surface, window_rays
+from perception.shadows import shadow_in_window, shadow_window
 from world.camera import backproject_to_height
 from perception.types import Detection
 
@@ -42,6 +43,49 @@ class Fit:
     yaw: float
     score: float
     silhouette_area: int
+
+
+def cast(camera, kind: str, centre: np.ndarray, size: float, yaw: float, free_top: bool = False,
+         reach: np.ndarray | None = None) -> tuple[Box2D, np.ndarray, np.ndarray | None, np.ndarray | None]:
+    """One ray cast of a primitive: window, (h, w) bool silhouette, upward surface (free_top, else None) and, with a
+    light's ``reach`` (shadows.estimate_reach), the floor in its shadow outside the silhouette (else None)."""
+    if reach is None:
+        window, sil, top = silhouette_and_top(camera, kind, centre, size, yaw, with_top=free_top)
+        return window, sil, top, None
+    window = shadow_window(camera, kind, centre, size, reach)
+    directions = window_rays(camera, window)
+    depths = ray_depths(camera, kind, centre, size, yaw, window, directions)
+    sil = np.isfinite(depths)
+    top = upward_surface(camera, kind, centre, size, depths, window, directions) if free_top else None
+    return window, sil, top, shadow_in_window(camera, kind, centre, size, yaw, reach, window) & ~sil
+
+
+def shadow_like_window(labels: np.ndarray, top: int, bottom: int, left: int, right: int) -> np.ndarray:
+    """(bottom-top, right-left) bool over a window that may extend past the image (False there): the pixels that
+    look like a shadow, deep or ambiguous (the floor's chroma, darker). A lit face or a paint (object) never is."""
+    height, width = labels.shape
+    out = np.zeros((bottom - top, right - left), dtype=bool)
+    t, b, l, r = max(top, 0), min(bottom, height), max(left, 0), min(right, width)
+    if b > t and r > l:
+        region = labels[t:b, l:r]
+        out[t - top:b - top, l - left:r - left] = (region == DEEP) | (region == AMBIGUOUS)
+    return out
+
+
+def shadow_explained(camera, kind: str, fit: Fit, size: float, detection: Detection, labels: np.ndarray,
+                     reach: np.ndarray | None) -> tuple[np.ndarray, int]:
+    """What the fitted primitive's shadow explains (labels: the frame's (H, W) pixel labels; reach: the light,
+    shadows.estimate_reach): (area,) bool, the detection's shadow-like pixels under it, and the number of
+    shadow-like pixels under it outside the detection. Nothing without a light."""
+    if reach is None:
+        return np.zeros(detection.area, dtype=bool), 0
+    window, _, _, shade = cast(camera, kind, fit.centre, size, fit.yaw, reach=reach)
+    dark = shadow_like_window(labels, window.top, window.bottom, window.left, window.right) & shade
+    ys, xs = detection.ys - window.top, detection.xs - window.left
+    inside = (ys >= 0) & (ys < dark.shape[0]) & (xs >= 0) & (xs < dark.shape[1])
+    explained = np.zeros(detection.area, dtype=bool)
+    explained[inside] = dark[ys[inside], xs[inside]]
+    return explained, int(dark.sum()) - int(explained.sum())
 
 
 def evidence_window(labels: np.ndarray, detection: Detection, top: int, bottom: int, left: int, right: int) -> np.ndarray:
@@ -77,13 +121,22 @@ def overlap_score(camera, kind: str, centre: np.ndarray, size: float, yaw: float
     return hits / (detection.area + floor), int(sil.sum())
 
 
-def _shift_scores(ev: np.ndarray, sil: np.ndarray, radius: int, iy: int, ix: int, free: np.ndarray | None = None) -> tuple[float, float]:
+def _shift_scores(ev: np.ndarray, sil: np.ndarray, radius: int, iy: int, ix: int, free: np.ndarray | None = None,
+                  shade: np.ndarray | None = None, dark: np.ndarray | None = None) -> tuple[float, float]:
     """(|S & D|, |S & floor|) of the silhouette moved by (iy - radius, ix - radius) pixels inside the evidence window;
-    floor under ``free`` (a part of S, same shape) is not counted."""
+    floor under ``free`` (a part of S, same shape) is not counted. With ``shade`` (its shadow outside it, same
+    shape) and ``dark`` (shadow_like_window over the evidence window), the shadow-like pixels under the shade count
+    with S & D, and those outside the segment with |D| too (they are explained, not missed)."""
     h, w = sil.shape
     region = ev[iy:iy + h, ix:ix + w]
     costly = sil if free is None else sil & ~free
-    return float(((region == 2.0) & sil).sum()), float(((region == -1.0) & costly).sum())
+    hits, cost = float(((region == 2.0) & sil).sum()), float(((region == -1.0) & costly).sum())
+    if shade is not None:
+        shaded = dark[iy:iy + h, ix:ix + w] & shade
+        outside = float((shaded & (region != 2.0)).sum())
+        hits += float(shaded.sum())
+        cost += outside
+    return hits, cost
 
 
 # Evidence of a segment pixel under a free top (the segment's pixels elsewhere: 2). A top lit as the floor is
@@ -92,12 +145,20 @@ def _shift_scores(ev: np.ndarray, sil: np.ndarray, radius: int, iy: int, ix: int
 TOP_SEGMENT_EVIDENCE = 1.0
 
 
-def _all_shift_scores(evidence: np.ndarray, sil: np.ndarray, free: np.ndarray | None) -> np.ndarray:
+def _all_shift_scores(evidence: np.ndarray, sil: np.ndarray, free: np.ndarray | None, shade: np.ndarray | None = None,
+                      dark: np.ndarray | None = None) -> np.ndarray:
     """shift_scores of the silhouette; under ``free`` (a part of it) floor costs nothing and a segment pixel
-    counts TOP_SEGMENT_EVIDENCE."""
+    counts TOP_SEGMENT_EVIDENCE; under ``shade`` (its shadow outside it) a shadow-like pixel (``dark``:
+    shadow_like_window over the evidence window), in the segment or not, counts as a segment pixel under the
+    silhouette: the body and its shadow explain the image (a grey object's segment holds its deep shadow; a fit
+    sliding towards the light, its shadow over the object's own dark sides, leaves the true shadow unexplained)."""
     if free is None or not free.any():
-        return shift_scores(evidence, sil)
-    return shift_scores(evidence, sil & ~free) + shift_scores(np.where(evidence > 0, TOP_SEGMENT_EVIDENCE, 0.0), free)
+        scores = shift_scores(evidence, sil)
+    else:
+        scores = shift_scores(evidence, sil & ~free) + shift_scores(np.where(evidence > 0, TOP_SEGMENT_EVIDENCE, 0.0), free)
+    if shade is not None and shade.any():
+        scores = scores + shift_scores(np.where(dark, 2.0, 0.0), shade)
+    return scores
 
 
 def shift_scores(evidence: np.ndarray, mask: np.ndarray) -> np.ndarray:
@@ -125,12 +186,15 @@ def shift_scores(evidence: np.ndarray, mask: np.ndarray) -> np.ndarray:
 
 
 def fit_primitive(camera, kind: str, start: np.ndarray, size: float, yaw: float, labels: np.ndarray,
-                  detection: Detection, radii: tuple[int, ...] = (6, 2), free_top: bool = False) -> Fit:
+                  detection: Detection, radii: tuple[int, ...] = (6, 2), free_top: bool = False,
+                  reach: np.ndarray | None = None) -> Fit:
     """Slide the silhouette of ``kind`` over the detection's evidence; returns the fitted centre.
 
     One ray cast per round: within a round the silhouette is moved as a rigid
     image (its shape changes negligibly over a few pixels), and the score of
-    the last round is read off the moved silhouette.
+    the last round is read off the moved silhouette. With a light's ``reach``
+    (shadows.estimate_reach) the primitive's shadow moves with it and explains
+    the segment's pixels it covers (a grey object's segment holds its deep shadow).
     """
     centre = np.asarray(start, dtype=float).copy()
     centre[2] = size
@@ -138,14 +202,16 @@ def fit_primitive(camera, kind: str, start: np.ndarray, size: float, yaw: float,
     rounds, extra = list(radii), 0
     while rounds:
         radius = rounds.pop(0)
-        window, sil, top = silhouette_and_top(camera, kind, centre, size, yaw, with_top=free_top)
+        window, sil, top, shade = cast(camera, kind, centre, size, yaw, free_top, reach)
         if window.empty or not sil.any():
             return Fit(centre, yaw, 0.0, 0)
         ev = evidence_window(labels, detection, window.top - radius, window.bottom + radius,
                              window.left - radius, window.right + radius)
-        scores = _all_shift_scores(ev, sil, top)  # (2r+1, 2r+1)
+        dark = None if shade is None else shadow_like_window(labels, window.top - radius, window.bottom + radius,
+                                                            window.left - radius, window.right + radius)
+        scores = _all_shift_scores(ev, sil, top, shade, dark)  # (2r+1, 2r+1)
         iy, ix = np.unravel_index(int(np.argmax(scores)), scores.shape)
-        hits, floor = _shift_scores(ev, sil, radius, iy, ix, top)
+        hits, floor = _shift_scores(ev, sil, radius, iy, ix, top, shade, dark)
         score, area = hits / (detection.area + floor), int(sil.sum())
         dv = iy - radius + _parabolic(scores[:, ix], iy)
         du = ix - radius + _parabolic(scores[iy, :], ix)
@@ -164,24 +230,32 @@ def fit_primitive(camera, kind: str, start: np.ndarray, size: float, yaw: float,
 
 
 def fit_cube(camera, start: np.ndarray, size: float, labels: np.ndarray, detection: Detection,
-             yaws: np.ndarray = CUBE_YAWS, free_top: bool = False) -> Fit:
-    """Cube fit over a set of yaws: coarse position with the middle yaw, then the best yaw, then refine."""
-    base = fit_primitive(camera, "cube", start, size, float(yaws[len(yaws) // 2]), labels, detection, radii=(6,), free_top=free_top)
+             yaws: np.ndarray = CUBE_YAWS, free_top: bool = False, reach: np.ndarray | None = None) -> Fit:
+    """Cube fit over a set of yaws: coarse position with the middle yaw, then the best yaw, then refine
+    (free_top, reach: as fit_primitive)."""
+    base = fit_primitive(camera, "cube", start, size, float(yaws[len(yaws) // 2]), labels, detection, radii=(6,),
+                         free_top=free_top, reach=reach)
     # the window does not depend on yaw: one set of rays and one evidence window for all yaws
-    window = primitive_window(camera, "cube", base.centre, size)
+    window = primitive_window(camera, "cube", base.centre, size) if reach is None else shadow_window(camera, "cube", base.centre, size, reach)
     best_yaw, best_score = float(yaws[len(yaws) // 2]), -1.0
     if not window.empty:
         directions = window_rays(camera, window)
         ev = evidence_window(labels, detection, window.top, window.bottom, window.left, window.right)
         segment, floor = ev == 2.0, ev == -1.0
+        dark = None if reach is None else shadow_like_window(labels, window.top, window.bottom, window.left, window.right)
         for yaw in yaws:
             depths = ray_depths(camera, "cube", base.centre, size, float(yaw), window, directions)
             sil = np.isfinite(depths)
             costly = sil & ~upward_surface(camera, "cube", base.centre, size, depths, window, directions) if free_top else sil
-            score = float((segment & sil).sum()) / (detection.area + float((floor & costly).sum()))
+            hits, cost = float((segment & sil).sum()), float((floor & costly).sum())
+            if reach is not None:  # as _shift_scores
+                shaded = dark & shadow_in_window(camera, "cube", base.centre, size, float(yaw), reach, window) & ~sil
+                hits += float(shaded.sum())
+                cost += float((shaded & ~segment).sum())
+            score = hits / (detection.area + cost)
             if score > best_score:
                 best_yaw, best_score = float(yaw), score
-    return fit_primitive(camera, "cube", base.centre, size, best_yaw, labels, detection, radii=(2,), free_top=free_top)
+    return fit_primitive(camera, "cube", base.centre, size, best_yaw, labels, detection, radii=(2,), free_top=free_top, reach=reach)
 
 
 def initial_centre(camera, detection: Detection, size: float) -> np.ndarray:
@@ -197,8 +271,8 @@ WARM_TRUSTED_SCORE = 0.95
 
 
 def fit_detection(camera, kind: str, detection: Detection, labels: np.ndarray, size: float,
-                  previous: Fit | None = None, free_top: bool = False) -> Fit:
-    """Best pose of a known primitive for one detection (free_top: as fit_primitive).
+                  previous: Fit | None = None, free_top: bool = False, reach: np.ndarray | None = None) -> Fit:
+    """Best pose of a known primitive for one detection (free_top, reach: as fit_primitive).
 
     With ``previous`` (the fit of the frame before, nearby) the search starts
     there with a small radius and, for cubes, the yaw is tracked within +-3
@@ -208,10 +282,10 @@ def fit_detection(camera, kind: str, detection: Detection, labels: np.ndarray, s
     warm = previous is not None and previous.score > 0 and np.linalg.norm(previous.centre[:2] - rough[:2]) < 0.3
 
     def primitive(start: np.ndarray, yaw: float = 0.0, radii: tuple[int, ...] = (6, 2)) -> Fit:
-        return fit_primitive(camera, kind, start, size, yaw, labels, detection, radii=radii, free_top=free_top)
+        return fit_primitive(camera, kind, start, size, yaw, labels, detection, radii=radii, free_top=free_top, reach=reach)
 
     if not warm:
-        return primitive(rough) if kind != "cube" else fit_cube(camera, rough, size, labels, detection, free_top=free_top)
+        return primitive(rough) if kind != "cube" else fit_cube(camera, rough, size, labels, detection, free_top=free_top, reach=reach)
     if kind != "cube":
         fit = primitive(previous.centre, radii=(TRACKING_RADIUS,))
         if fit.score < WARM_TRUSTED_SCORE:
@@ -220,5 +294,5 @@ def fit_detection(camera, kind: str, detection: Detection, labels: np.ndarray, s
     near = np.mod(previous.yaw + np.radians([-3.0, 0.0, 3.0]), math.pi / 2)
     fit = max((primitive(previous.centre, float(y), (TRACKING_RADIUS,)) for y in near), key=lambda f: f.score)
     if fit.score < WARM_TRUSTED_SCORE:  # lost the pose (a hit spun it), or never had it: search all
-        fit = max(fit, fit_cube(camera, rough, size, labels, detection, free_top=free_top), key=lambda f: f.score)
+        fit = max(fit, fit_cube(camera, rough, size, labels, detection, free_top=free_top, reach=reach), key=lambda f: f.score)
     return fit

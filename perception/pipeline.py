@@ -28,7 +28,8 @@ from perception.attributes import (
     shape_probabilities,
 )
 from perception.geometry import primitive_window, ray_depths, silhouette
-from perception.lift import Fit, fit_cube, fit_detection, fit_primitive, initial_centre
+from perception.lift import Fit, cast, fit_cube, fit_detection, fit_primitive, initial_centre, shadow_explained
+from perception.shadows import estimate_reach, shadow_sample
 from perception.segment import MIN_SEGMENT_AREA, ClassicalSegmenter, body_of, own_shadow, paint_like_floor, pixel_hue_labels, sharpen_edges
 from perception.track import HungarianTracker, track_piece
 from perception.types import NEUTRAL, Attributes, Detection, FrameSegments, LiftedTrack, Lifter, Segmenter, Tracker, TrackState
@@ -105,47 +106,89 @@ def _spread(frames: list[int], count: int) -> list[int]:
     return [frames[int(round(k))] for k in np.linspace(0, len(frames) - 1, count)]
 
 
+LIGHT_SAMPLES_PER_TRACK = 3  # frames of each coloured track that calibrate the light (shadows.estimate_reach)
+MAX_LIGHT_SAMPLES = 18
+MIN_LIGHT_SHAPE_SCORE = 0.7  # a coloured track explained less well by its primitive (a fragment) does not calibrate
+
+
+def _beside_shadows_only(state: TrackState, segments: list[FrameSegments]) -> list[int]:
+    """Frames where the track's segment is whole (not split, not at the border) and shares its component with
+    hue-less segments only: its own shadow may touch it, another coloured object may not."""
+    chosen = []
+    for frame, det in sorted(state.detections.items()):
+        others = [d for d in segments[frame].detections if d.component == det.component and d is not det]
+        if not det.split and not det.touches_border and all(d.hue_label == NEUTRAL for d in others):
+            chosen.append(frame)
+    return chosen
+
+
+def light_reach(camera: Camera, size: float, coloured: list[tuple[TrackState, LiftedTrack]],
+                segments: list[FrameSegments]) -> np.ndarray | None:
+    """The video's light as shadows.estimate_reach's (2,) reach, from coloured tracks (their tracker state and lifted
+    track) that their primitive explains well, on frames where no other coloured thing touches them: their paint
+    places them without help from the shadows."""
+    candidates = []
+    for state, track in coloured:
+        if track.attributes.color == "gray" or track.attributes.shape_score < MIN_LIGHT_SHAPE_SCORE:
+            continue
+        whole = set(_beside_shadows_only(state, segments))
+        usable = [i for i, frame in enumerate(track.frames) if int(frame) in whole]
+        candidates += [(track, i) for i in _spread(usable, LIGHT_SAMPLES_PER_TRACK)]
+    samples = []
+    for track, i in (candidates[int(round(k))] for k in np.linspace(0, len(candidates) - 1, min(len(candidates), MAX_LIGHT_SAMPLES))):
+        kind, centre = track.attributes.shape, track.positions[i]
+        yaw = 0.0 if np.isnan(track.yaw[i]) else float(track.yaw[i])
+        window, sil = silhouette(camera, kind, centre, size, yaw)
+        samples.append(shadow_sample(camera, segments[int(track.frames[i])].labels, kind, centre, size, yaw, window, sil))
+    return estimate_reach(samples)
+
+
 class PrimitiveLifter:
     """Projected-primitive fit with the known object size (no learned weights)."""
 
     def __init__(self, object_size: float = DEFAULT_OBJECT_SIZE) -> None:
         self.size = object_size
 
-    def shape_fits(self, camera: Camera, detection: Detection, labels: np.ndarray, free_top: bool = False) -> dict[str, Fit]:
-        """Per primitive kind, its best fit to one detection (labels: the frame's (H, W) pixel labels; free_top:
-        lift.fit_primitive's)."""
+    def shape_fits(self, camera: Camera, detection: Detection, labels: np.ndarray, free_top: bool = False,
+                   reach: np.ndarray | None = None) -> dict[str, Fit]:
+        """Per primitive kind, its best fit to one detection (labels: the frame's (H, W) pixel labels; free_top,
+        reach: lift.fit_primitive's)."""
         start = initial_centre(camera, detection, self.size)
-        return {"sphere": fit_primitive(camera, "sphere", start, self.size, 0.0, labels, detection, free_top=free_top),
-                "cylinder": fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, detection, free_top=free_top),
-                "cube": fit_cube(camera, start, self.size, labels, detection, free_top=free_top)}
+        return {"sphere": fit_primitive(camera, "sphere", start, self.size, 0.0, labels, detection, free_top=free_top, reach=reach),
+                "cylinder": fit_primitive(camera, "cylinder", start, self.size, 0.0, labels, detection, free_top=free_top, reach=reach),
+                "cube": fit_cube(camera, start, self.size, labels, detection, free_top=free_top, reach=reach)}
 
     def shape_scores(self, camera: Camera, track: TrackState, segments: list[FrameSegments], frames_used: list[int],
-                     frames: np.ndarray, free_top: bool = False) -> dict[str, list[float]]:
+                     frames: np.ndarray, free_top: bool = False, reach: np.ndarray | None = None) -> dict[str, list[float]]:
         """Per primitive kind, the shape overlap (attributes.shape_overlap) of its best fit on each of ``frames_used``,
         judged on the segment without its mixed edge pixels (segment.sharpen_edges; frames: (F, H, W, 3) uint8;
-        free_top: lift.fit_primitive's)."""
+        free_top, reach: lift.fit_primitive's; the segment's pixels a fit's shadow explains count as explained)."""
         scores = {kind: [] for kind in SHAPE_KINDS}
         for frame in frames_used:
             det, labels = sharpen_edges(frames[frame], segments[frame].labels, track.detections[frame])
             # fitted without the segment's own shadow: a sphere's contact shadow would draw its fit down onto it
             shadow = own_shadow(labels, det)
-            for kind, fit in self.shape_fits(camera, body_of(det, shadow), labels, free_top).items():
-                scores[kind].append(shape_overlap(camera, kind, fit, self.size, det, labels, shadow, free_top))
+            for kind, fit in self.shape_fits(camera, body_of(det, shadow), labels, free_top, reach).items():
+                scores[kind].append(shape_overlap(camera, kind, fit, self.size, det, labels, shadow, free_top,
+                                                  shadow_explained(camera, kind, fit, self.size, det, labels, reach)))
         return scores
 
     def _lift_track(self, frames: np.ndarray, segments: list[FrameSegments], track: TrackState,
-                   camera: Camera) -> tuple[LiftedTrack, dict[str, list[float]]] | None:
+                   camera: Camera, reach: np.ndarray | None = None) -> tuple[LiftedTrack, dict[str, list[float]]] | None:
         """One tracklet lifted to the plane with its attributes, and its per-kind shape overlaps; None when no
-        primitive of the known size explains it (a fragment, not an object)."""
+        primitive of the known size explains it (a fragment, not an object). reach: the video's light
+        (light_reach), given for grey tracks, whose segments may hold their shadows."""
         isolated = _isolated_frames(track, segments)
         basis = _spread(isolated, MAX_ATTRIBUTE_FRAMES) or _spread(sorted(track.detections), MAX_ATTRIBUTE_FRAMES)
+        appearance_frames = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
+        if reach is not None and color_of([track.detections[f] for f in appearance_frames], frames) != "gray":
+            reach = None  # a dark paint segmented hue-less (a brown metal body): its deep pixels are its body
         # an object with the floor's chroma may show its top as floor (lift.fit_primitive's free_top): most frames decide
         free_top = 2 * sum(paint_like_floor(frames[f], segments[f].labels, track.detections[f]) for f in basis) > len(basis)
-        scores = self.shape_scores(camera, track, segments, basis, frames, free_top)
+        scores = self.shape_scores(camera, track, segments, basis, frames, free_top, reach)
         kind, _, shape_score = rank_shapes(scores)
         if shape_score < MIN_SHAPE_SCORE:
             return None
-        appearance_frames = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
         attributes = decide_attributes([track.detections[f] for f in appearance_frames], frames, segments, scores)
         frame_ids, positions, yaws, weights = [], [], [], []
         previous: Fit | None = None
@@ -154,7 +197,7 @@ class PrimitiveLifter:
             if previous is not None and _same_segment(reference, det):
                 fit = previous  # a resting object: the same pixels give the same pose (most frames of most videos)
             else:
-                fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous, free_top)
+                fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous, free_top, reach)
                 previous, reference = fit, det
             weight = float(np.clip(fit.score / 0.7, 0.0, 1.0))
             if det.touches_border:
@@ -175,13 +218,22 @@ class PrimitiveLifter:
 
     def lift(self, frames: np.ndarray, segments: list[FrameSegments], tracks: list[TrackState],
              camera: Camera, *, progress: bool = False) -> list[LiftedTrack]:
-        iterator = tracks
-        if progress:
-            iterator = tqdm(tracks, desc="lift", unit="object")
+        bar = tqdm(total=len(tracks), desc="lift", unit="object", disable=not progress)
         lifted, appearance, states, scores_of = [], {}, {}, {}
         next_id = max((t.id for t in tracks), default=-1) + 1
-        for track in iterator:
-            result = self._lift_track(frames, segments, track, camera)
+        # coloured tracks first: placed by their paint, they calibrate the light whose shadows the grey ones may hold
+        first = {}
+        for track in tracks:
+            if track.hue_label != NEUTRAL:
+                first[track.id] = self._lift_track(frames, segments, track, camera)
+                bar.update()
+        reach = light_reach(camera, self.size, [(track, first[track.id][0]) for track in tracks if first.get(track.id) is not None], segments)
+        for track in tracks:
+            if track.id in first:
+                result = first[track.id]
+            else:
+                result = self._lift_track(frames, segments, track, camera, reach)
+                bar.update()
             pieces = [(track, result)]
             jumps = [] if result is None else _jump_cuts(result[0], track)
             cuts = sorted(jumps + [c for c in _colour_cuts(track, frames) if all(abs(c - j) >= COLOUR_RUN_FRAMES for j in jumps)])
@@ -192,7 +244,7 @@ class PrimitiveLifter:
                 for run in runs:
                     piece = track_piece(track, run, next_id)
                     next_id += 1
-                    pieces.append((piece, self._lift_track(frames, segments, piece, camera)))
+                    pieces.append((piece, self._lift_track(frames, segments, piece, camera, None if piece.hue_label != NEUTRAL else reach)))
             for state, lifted_piece in pieces:
                 states[state.id] = state
                 if lifted_piece is None:  # no primitive of the known size explains it: a fragment, not an object
@@ -200,6 +252,8 @@ class PrimitiveLifter:
                 lifted.append(lifted_piece[0])
                 scores_of[state.id] = lifted_piece[1]
                 appearance[state.id] = track_appearance(state, frames)
+        bar.close()
+
         def explained(piece: LiftedTrack, anchor: LiftedTrack) -> bool:
             return _explained_by(camera, self.size, states[piece.id], anchor)
 
@@ -209,6 +263,8 @@ class PrimitiveLifter:
             states[source.id], scores_of[source.id] = merged, pooled
             return _redecide_attributes(merged, pooled, frames, segments)
 
+        if reach is not None:  # before association: a shadow tracklet joined to its caster would move it
+            lifted = _without_cast_shadows(lifted, states, camera, self.size, reach)
         associated = _associate(lifted, self.size, appearance, explained=explained, decide=decide)
         # A short piece of a track cut at a gap that joins nothing and appears and vanishes inside the image is
         # what the tracker's widened gate had attached to that track (a shadow, a reflection), not an object:
@@ -887,6 +943,48 @@ def _shadow_offset(follower: LiftedTrack, caster: LiftedTrack, appearance: dict[
         return None
     median = _steady_offset(offset[moving], size)
     return None if median is None else (median, True)
+
+
+CAST_SHADOW_FRAMES = 8  # frames (spread) of a grey track on which it is compared with the other tracks' shadows
+CAST_SHADOW_SHARE = 0.8  # share of its segment's pixels inside the others' shadows (or behind them) on a frame ...
+CAST_SHADOW_MAJORITY = 0.7  # ... on this share of those frames: a shadow, not an object
+
+
+def _without_cast_shadows(tracks: list[LiftedTrack], states: dict[int, TrackState], camera: Camera, size: float,
+                          reach: np.ndarray) -> list[LiftedTrack]:
+    """The tracks without the grey ones that the other tracks' shadows explain (reach: the video's light,
+    light_reach). On most of CAST_SHADOW_FRAMES frames spread over its detections, at least CAST_SHADOW_SHARE of its
+    segment not behind another track's primitive lies in the shadow of one at its fitted pose (and at most half of
+    it is behind one: a piece or a duplicate of another tracklet is association's to judge): a shadow
+    cut off from its caster's segment, which a grey caster's (a grey cube's) is, and which _without_shadows does not
+    judge. A grey object standing in another's shadow still rises out of it in the image."""
+    kept = []
+    for track in tracks:
+        state = states.get(track.id)
+        if track.attributes.color != "gray" or state is None or not state.detections:
+            kept.append(track)
+            continue
+        explained = 0
+        checked = _spread(sorted(state.detections), CAST_SHADOW_FRAMES)
+        for frame in checked:
+            det = state.detections[frame]
+            behind, shaded = np.zeros(det.area, dtype=bool), np.zeros(det.area, dtype=bool)
+            for other in tracks:
+                k = np.searchsorted(other.frames, frame)
+                if other is track or k >= len(other.frames) or other.frames[k] != frame:
+                    continue
+                yaw = 0.0 if np.isnan(other.yaw[k]) else float(other.yaw[k])
+                window, sil, _, shade = cast(camera, other.attributes.shape, other.positions[k], size, yaw, reach=reach)
+                ys, xs = det.ys - window.top, det.xs - window.left
+                inside = (ys >= 0) & (ys < sil.shape[0]) & (xs >= 0) & (xs < sil.shape[1])
+                behind[inside] |= sil[ys[inside], xs[inside]]
+                shaded[inside] |= shade[ys[inside], xs[inside]]
+            # mostly under another primitive: a piece or a duplicate of it, which association judges
+            if behind.mean() <= 0.5 and (shaded & ~behind).sum() >= CAST_SHADOW_SHARE * (~behind).sum():
+                explained += 1
+        if explained < CAST_SHADOW_MAJORITY * len(checked):
+            kept.append(track)
+    return kept
 
 
 def _without_shadows(tracks: list[LiftedTrack], appearance: dict[int, np.ndarray], size: float) -> list[LiftedTrack]:

@@ -53,11 +53,22 @@ def cast(camera, kind: str, centre: np.ndarray, size: float, yaw: float, free_to
         window, sil, top = silhouette_and_top(camera, kind, centre, size, yaw, with_top=free_top)
         return window, sil, top, None
     window = shadow_window(camera, kind, centre, size, reach)
-    directions = window_rays(camera, window)
-    depths = ray_depths(camera, kind, centre, size, yaw, window, directions)
-    sil = np.isfinite(depths)
-    top = upward_surface(camera, kind, centre, size, depths, window, directions) if free_top else None
+    body = primitive_window(camera, kind, centre, size)  # inside ``window``: the primitive is ray-cast there only
+    directions = window_rays(camera, body)
+    depths = ray_depths(camera, kind, centre, size, yaw, body, directions)
+    inner = _inner(window, body)
+    sil = np.zeros(window.shape, dtype=bool)
+    sil[inner] = np.isfinite(depths)
+    top = None
+    if free_top:
+        top = np.zeros(window.shape, dtype=bool)
+        top[inner] = upward_surface(camera, kind, centre, size, depths, body, directions)
     return window, sil, top, shadow_in_window(camera, kind, centre, size, yaw, reach, window) & ~sil
+
+
+def _inner(outer: Box2D, inner: Box2D) -> tuple[slice, slice]:
+    """The slices of ``outer``'s (h, w) arrays that ``inner`` (a window inside it) covers."""
+    return (slice(inner.top - outer.top, inner.bottom - outer.top), slice(inner.left - outer.left, inner.right - outer.left))
 
 
 def shadow_like_window(labels: np.ndarray, top: int, bottom: int, left: int, right: int) -> np.ndarray:
@@ -235,24 +246,19 @@ def fit_cube(camera, start: np.ndarray, size: float, labels: np.ndarray, detecti
     (free_top, reach: as fit_primitive)."""
     base = fit_primitive(camera, "cube", start, size, float(yaws[len(yaws) // 2]), labels, detection, radii=(6,),
                          free_top=free_top, reach=reach)
-    # the window does not depend on yaw: one set of rays and one evidence window for all yaws
-    window = primitive_window(camera, "cube", base.centre, size) if reach is None else shadow_window(camera, "cube", base.centre, size, reach)
+    # the window does not depend on yaw: one set of rays and one evidence window for all yaws; the yaw is read off
+    # the body (the shadow moves the pose, not the yaw: fit_primitive below refines with it)
+    window = primitive_window(camera, "cube", base.centre, size)
     best_yaw, best_score = float(yaws[len(yaws) // 2]), -1.0
     if not window.empty:
         directions = window_rays(camera, window)
         ev = evidence_window(labels, detection, window.top, window.bottom, window.left, window.right)
         segment, floor = ev == 2.0, ev == -1.0
-        dark = None if reach is None else shadow_like_window(labels, window.top, window.bottom, window.left, window.right)
         for yaw in yaws:
             depths = ray_depths(camera, "cube", base.centre, size, float(yaw), window, directions)
             sil = np.isfinite(depths)
             costly = sil & ~upward_surface(camera, "cube", base.centre, size, depths, window, directions) if free_top else sil
-            hits, cost = float((segment & sil).sum()), float((floor & costly).sum())
-            if reach is not None:  # as _shift_scores
-                shaded = dark & shadow_in_window(camera, "cube", base.centre, size, float(yaw), reach, window) & ~sil
-                hits += float(shaded.sum())
-                cost += float((shaded & ~segment).sum())
-            score = hits / (detection.area + cost)
+            score = float((segment & sil).sum()) / (detection.area + float((floor & costly).sum()))
             if score > best_score:
                 best_yaw, best_score = float(yaw), score
     return fit_primitive(camera, "cube", base.centre, size, best_yaw, labels, detection, radii=(2,), free_top=free_top, reach=reach)

@@ -946,7 +946,8 @@ def _shadow_offset(follower: LiftedTrack, caster: LiftedTrack, appearance: dict[
 
 
 CAST_SHADOW_FRAMES = 8  # frames (spread) of a grey track on which it is compared with the other tracks' shadows
-CAST_SHADOW_SHARE = 0.8  # share of its segment's pixels inside the others' shadows (or behind them) on a frame ...
+CAST_SHADOW_SHARE = 0.8  # share of its segment's pixels not behind another primitive that lie in the others' shadows ...
+MIN_SHADED_SHARE = 0.2  # ... and at least this share of all its pixels (wholly behind others: a duplicate, association's) ...
 CAST_SHADOW_MAJORITY = 0.7  # ... on this share of those frames: a shadow, not an object
 
 
@@ -954,8 +955,9 @@ def _without_cast_shadows(tracks: list[LiftedTrack], states: dict[int, TrackStat
                           reach: np.ndarray) -> list[LiftedTrack]:
     """The tracks without the grey ones that the other tracks' shadows explain (reach: the video's light,
     light_reach). On most of CAST_SHADOW_FRAMES frames spread over its detections, at least CAST_SHADOW_SHARE of its
-    segment not behind another track's primitive lies in the shadow of one at its fitted pose (and at most half of
-    it is behind one: a piece or a duplicate of another tracklet is association's to judge): a shadow
+    segment not behind another track's primitive lies in the shadow of one at its fitted pose, and that is at least
+    MIN_SHADED_SHARE of the segment (one wholly behind another tracklet's primitive, a piece or a duplicate of it, is
+    association's to judge; pixels behind a primitive are its whatever they show): a shadow
     cut off from its caster's segment, which a grey caster's (a grey cube's) is, and which _without_shadows does not
     judge. A grey object standing in another's shadow still rises out of it in the image."""
     kept = []
@@ -979,8 +981,8 @@ def _without_cast_shadows(tracks: list[LiftedTrack], states: dict[int, TrackStat
                 inside = (ys >= 0) & (ys < sil.shape[0]) & (xs >= 0) & (xs < sil.shape[1])
                 behind[inside] |= sil[ys[inside], xs[inside]]
                 shaded[inside] |= shade[ys[inside], xs[inside]]
-            # mostly under another primitive: a piece or a duplicate of it, which association judges
-            if behind.mean() <= 0.5 and (shaded & ~behind).sum() >= CAST_SHADOW_SHARE * (~behind).sum():
+            seen_shaded = (shaded & ~behind).sum()  # pixels behind another primitive are its (a piece, a duplicate)
+            if seen_shaded >= CAST_SHADOW_SHARE * (~behind).sum() and seen_shaded >= MIN_SHADED_SHARE * det.area:
                 explained += 1
         if explained < CAST_SHADOW_MAJORITY * len(checked):
             kept.append(track)

@@ -23,7 +23,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from perception.background import AMBIGUOUS, DEEP, FLOOR
-from perception.geometry import Box2D, floor_points, primitive_window
+from perception.geometry import Box2D, floor_planes, floor_points, primitive_window
 from world.camera import project
 
 MIN_ELEVATION_DEG = 25.0  # lower lights than this cast shadows longer than the search window
@@ -43,7 +43,11 @@ def in_shadow(kind: str, size: float, yaw: float | np.ndarray, offsets: np.ndarr
     size, yaw rad about +z; a scalar or an array broadcast against offsets[..., 0]); reach: (2,) as the module
     docstring. The primitive's own footprint is in its shadow.
     """
-    qx, qy = offsets[..., 0], offsets[..., 1]
+    return _in_shadow_xy(kind, size, yaw, offsets[..., 0], offsets[..., 1], reach)
+
+
+def _in_shadow_xy(kind: str, size: float, yaw: float | np.ndarray, qx: np.ndarray, qy: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """in_shadow with the offsets' x and y as two arrays of one shape (contiguous planes are faster)."""
     kx, ky = float(reach[0]), float(reach[1])
     if kind == "sphere":
         # the floor point's line towards the light, (q - h reach, h), passes within size of (0, 0, size)
@@ -73,9 +77,18 @@ def in_shadow(kind: str, size: float, yaw: float | np.ndarray, offsets: np.ndarr
 def shadow_in_window(camera, kind: str, centre: np.ndarray, size: float, yaw: float, reach: np.ndarray,
                      window: Box2D) -> np.ndarray:
     """(h, w) bool: the window's pixels that see floor in the primitive's shadow (its own silhouette included)."""
-    offsets = floor_points(camera)[window.top:window.bottom, window.left:window.right] - np.asarray(centre, float)[:2]
-    with np.errstate(invalid="ignore"):
-        return in_shadow(kind, size, yaw, offsets, reach)  # NaN floor points (above the horizon) compare False
+    xs, ys = floor_planes(camera)
+    rows, columns = slice(window.top, window.bottom), slice(window.left, window.right)
+    qx, qy = xs[rows, columns] - np.float32(centre[0]), ys[rows, columns] - np.float32(centre[1])
+    with np.errstate(invalid="ignore"):  # NaN floor points (above the horizon) compare False
+        if kind == "cylinder":
+            return _in_shadow_xy(kind, size, yaw, qx, qy, reach)
+        # every primitive's shadow lies within its footprint's circumradius of the segment [0, 2 size x reach]:
+        # the exact test runs on those pixels only
+        near = _in_shadow_xy("cylinder", size * math.sqrt(2.0), 0.0, qx, qy, reach / math.sqrt(2.0))
+        out = np.zeros(near.shape, dtype=bool)
+        out[near] = _in_shadow_xy(kind, size, yaw, qx[near], qy[near], reach)
+        return out
 
 
 def shadow_reach_points(centre: np.ndarray, size: float, reach: np.ndarray) -> np.ndarray:

@@ -97,7 +97,7 @@ def _render(seed: int) -> tuple[np.ndarray, np.ndarray]:
             light = np.minimum(light, 1.0 - (1.0 - SHADOW_DEPTH) * occlusion)
         image = floor * light[..., None]
         touched.append((light < 1.0) | paint_objects(image, [(kind, colour) for kind, colour, _, _ in OBJECTS], centres))
-        frames.append(np.clip(image + rng.normal(0, 1.0, image.shape), 0, 255).astype(np.uint8))
+        frames.append(grainy(image, rng))
     return np.stack(frames), np.stack(touched)
 
 
@@ -108,6 +108,18 @@ def _encode(path: Path, frames: np.ndarray, crf: int = 23) -> None:
         for image in frames:
             container.mux(stream.encode(av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24")))
         container.mux(stream.encode())
+
+
+def grainy(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
+    """(H, W, 3) uint8 of a float image with 1 grey level of sensor noise."""
+    return np.clip(image + rng.normal(0, 1.0, image.shape), 0, 255).astype(np.uint8)
+
+
+def as_decoded(tmp_path_factory, name: str, frames: np.ndarray) -> np.ndarray:
+    """(F, H, W, 3) uint8 frames h264-encoded, as a renderer's would be, and decoded back."""
+    path = tmp_path_factory.mktemp(name) / f"{name}.mp4"
+    _encode(path, frames)
+    return read_video(path)[0]
 
 
 @pytest.fixture(scope="module")

@@ -17,8 +17,8 @@ from perception.geometry import silhouette
 from perception.pipeline import perceive_frames
 from perception.segment import ClassicalSegmenter
 from perception.shadows import ShadowSample, estimate_reach, in_shadow, reach_of, shadow_sample
-from perception.video import read_video
-from tests.perception.test_perception_background import CAMERA, SIZE, _centre_at, _encode, _ground_xy, paint_objects
+from tests.perception.test_perception_background import CAMERA, SIZE, _centre_at, _ground_xy, as_decoded, grainy, paint_objects
+from tests.perception.test_perception_deep_shadows import FLOOR_RGB, SHADOW_RATIO  # Blender's warm floor and hard shadow
 
 HEIGHTS = 81  # marching steps from the floor to the top of a primitive
 
@@ -57,8 +57,6 @@ def test_closed_form_shadows_match_marching_towards_the_light(kind):
 
 
 FRAMES = 40
-FLOOR_RGB = np.array([168.0, 137.0, 136.0])  # a warm floor (Blender dev seed 7707, scene 0)
-SHADOW_RATIO = np.array([0.39, 0.42, 0.46])  # a hard shadow's light per channel, measured on that scene
 AZIMUTH, ELEVATION = math.radians(210.0), math.radians(40.0)  # the light comes from there
 REACH = reach_of(AZIMUTH, ELEVATION)
 # (kind, colour, start pixel, end pixel); paint_objects gives cubes the yaw 0.3
@@ -82,15 +80,13 @@ def _render(seed: int) -> np.ndarray:
             shadowed |= _marched_shadow(kind, CUBE_YAW, ground - centre[:2], REACH)
         image = FLOOR_RGB * np.where(shadowed[..., None], SHADOW_RATIO, 1.0)
         paint_objects(image, [(kind, colour) for kind, colour, _, _ in OBJECTS], centres)
-        frames.append(np.clip(image + rng.normal(0, 1.0, image.shape), 0, 255).astype(np.uint8))
+        frames.append(grainy(image, rng))
     return np.stack(frames)
 
 
 @pytest.fixture(scope="module")
 def shadow_video(tmp_path_factory) -> np.ndarray:
-    path = tmp_path_factory.mktemp("cast_shadows") / "cast.mp4"
-    _encode(path, _render(seed=23))
-    return read_video(path)[0]
+    return as_decoded(tmp_path_factory, "cast_shadows", _render(seed=23))
 
 
 def _azimuth_elevation(reach: np.ndarray) -> tuple[float, float]:

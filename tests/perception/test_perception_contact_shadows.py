@@ -16,8 +16,7 @@ from perception.background import DEEP, FLOOR, OBJECT
 from perception.pipeline import perceive_frames
 from perception.segment import MAX_OWN_SHADOW, body_of, own_shadow
 from perception.types import NEUTRAL, Detection
-from perception.video import read_video
-from tests.perception.test_perception_background import CAMERA, _centre_at, _encode, _ground_xy, paint_objects
+from tests.perception.test_perception_background import CAMERA, _centre_at, _ground_xy, as_decoded, grainy, paint_objects
 
 FRAMES = 40
 FLOOR_RGB = np.array([150.0, 150.0, 154.0])  # a plain grey floor (Blender dev seed 7707, scene 7)
@@ -44,14 +43,12 @@ def _render(seed: int) -> np.ndarray:
             light[np.linalg.norm(ground - (centre[:2] + TOWARDS_CAMERA * towards), axis=-1) < SHADOW_RADIUS] = SHADOW_RATIO
         image = FLOOR_RGB * light
         paint_objects(image, [(kind, colour) for kind, colour, _, _ in OBJECTS], centres)
-        frames.append(np.clip(image + rng.normal(0, 1.0, image.shape), 0, 255).astype(np.uint8))
+        frames.append(grainy(image, rng))
     return np.stack(frames)
 
 
-def test_spheres_over_their_deep_contact_shadow_are_spheres(tmp_path):
-    path = tmp_path / "contact.mp4"
-    _encode(path, _render(seed=5))
-    observations, _ = perceive_frames(read_video(path)[0], CAMERA)
+def test_spheres_over_their_deep_contact_shadow_are_spheres(tmp_path_factory):
+    observations, _ = perceive_frames(as_decoded(tmp_path_factory, "contact", _render(seed=5)), CAMERA)
     assert sorted((o.color, o.shape.kind) for o in observations.objects) == [
         ("green", "cylinder"), ("purple", "sphere"), ("red", "sphere")]
 

@@ -14,8 +14,7 @@ import pytest
 
 from perception.pipeline import _palette_appearance, _without_shadows, perceive_frames
 from perception.types import Attributes, LiftedTrack
-from perception.video import read_video
-from tests.perception.test_perception_background import CAMERA, SIZE, _centre_at, _encode, _ground_xy, paint_objects
+from tests.perception.test_perception_background import CAMERA, SIZE, _centre_at, _ground_xy, as_decoded, grainy, paint_objects
 
 FRAMES = 48
 FLOOR_RGB = np.array([168.0, 137.0, 136.0])  # a warm floor (Blender dev seed 7707, scene 0)
@@ -37,15 +36,13 @@ def _render(seed: int) -> np.ndarray:
             light[np.linalg.norm(offset, axis=-1) < 1.0] = SHADOW_RATIO
         image = FLOOR_RGB * light
         paint_objects(image, [(kind, colour) for kind, colour, _, _ in OBJECTS], centres)
-        frames.append(np.clip(image + rng.normal(0, 1.0, image.shape), 0, 255).astype(np.uint8))
+        frames.append(grainy(image, rng))
     return np.stack(frames)
 
 
 @pytest.fixture(scope="module")
 def deep_shadow_video(tmp_path_factory) -> np.ndarray:
-    path = tmp_path_factory.mktemp("deep_shadows") / "deep.mp4"
-    _encode(path, _render(seed=11))
-    return read_video(path)[0]
+    return as_decoded(tmp_path_factory, "deep_shadows", _render(seed=11))
 
 
 def test_deep_hard_shadows_are_not_objects(deep_shadow_video):

@@ -111,6 +111,17 @@ MAX_LIGHT_SAMPLES = 18
 MIN_LIGHT_SHAPE_SCORE = 0.7  # a coloured track explained less well by its primitive (a fragment) does not calibrate
 
 
+def _appearance_frames(track: TrackState, isolated: list[int]) -> list[int]:
+    """The frames whose pixels decide a track's colour and material: MAX_APPEARANCE_FRAMES spread over its isolated
+    frames (_isolated_frames), over all its frames when it has none."""
+    return _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
+
+
+def _grey_paint(track: TrackState, frames: np.ndarray, appearance_frames: list[int]) -> bool:
+    """Whether a track's colour (attributes.color_of on ``appearance_frames``) is grey."""
+    return color_of([track.detections[f] for f in appearance_frames], frames) == "gray"
+
+
 def _beside_shadows_only(state: TrackState, segments: list[FrameSegments]) -> list[int]:
     """Frames where the track's segment is whole (not split, not at the border) and shares its component with
     hue-less segments only: its own shadow may touch it, another coloured object may not."""
@@ -180,8 +191,8 @@ class PrimitiveLifter:
         (light_reach), given for grey tracks, whose segments may hold their shadows."""
         isolated = _isolated_frames(track, segments)
         basis = _spread(isolated, MAX_ATTRIBUTE_FRAMES) or _spread(sorted(track.detections), MAX_ATTRIBUTE_FRAMES)
-        appearance_frames = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
-        if reach is not None and color_of([track.detections[f] for f in appearance_frames], frames) != "gray":
+        appearance_frames = _appearance_frames(track, isolated)
+        if reach is not None and not _grey_paint(track, frames, appearance_frames):
             reach = None  # a dark paint segmented hue-less (a brown metal body): its deep pixels are its body
         # an object with the floor's chroma may show its top as floor (lift.fit_primitive's free_top): most frames decide
         free_top = 2 * sum(paint_like_floor(frames[f], segments[f].labels, track.detections[f]) for f in basis) > len(basis)
@@ -227,10 +238,15 @@ class PrimitiveLifter:
             if track.hue_label != NEUTRAL:
                 first[track.id] = self._lift_track(frames, segments, track, camera)
                 bar.update()
-        reach = light_reach(camera, self.size, [(track, first[track.id][0]) for track in tracks if first.get(track.id) is not None], segments)
+        coloured = [(track, first[track.id][0]) for track in tracks if first.get(track.id) is not None]
+        reach = light_reach(camera, self.size, coloured, segments)
         for track in tracks:
             if track.id in first:
                 result = first[track.id]
+            elif reach is not None and _in_cast_shadows(track, [t for _, t in coloured], camera, self.size, reach) \
+                    and _grey_paint(track, frames, _appearance_frames(track, _isolated_frames(track, segments))):
+                bar.update()  # a coloured object's shadow (as _without_cast_shadows below): not lifted at all
+                continue
             else:
                 result = self._lift_track(frames, segments, track, camera, reach)
                 bar.update()
@@ -443,7 +459,7 @@ def _redecide_attributes(merged: TrackState, pooled: dict[str, list[float]],
     attribute rules on frames spread over the whole joined track (``merged``: pieces of one frame united),
     shape from the tracklets' pooled primitive overlaps (_pooled_shape_scores)."""
     isolated = _isolated_frames(merged, segments)
-    chosen = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(merged.detections), MAX_APPEARANCE_FRAMES)
+    chosen = _appearance_frames(merged, isolated)
     return decide_attributes([merged.detections[f] for f in chosen], frames, segments, pooled)
 
 
@@ -951,42 +967,41 @@ MIN_SHADED_SHARE = 0.2  # ... and at least this share of all its pixels (wholly 
 CAST_SHADOW_MAJORITY = 0.7  # ... on this share of those frames: a shadow, not an object
 
 
+def _in_cast_shadows(state: TrackState, casters: list[LiftedTrack], camera: Camera, size: float, reach: np.ndarray) -> bool:
+    """Whether the casters' shadows explain a tracklet (its tracker state; reach: the video's light, light_reach).
+    On most of CAST_SHADOW_FRAMES frames spread over its detections, at least CAST_SHADOW_SHARE of its segment not
+    behind a caster's primitive lies in the shadow of one at its fitted pose, and that is at least MIN_SHADED_SHARE
+    of the segment (one wholly behind another tracklet's primitive, a piece or a duplicate of it, is association's
+    to judge; pixels behind a primitive are its whatever they show)."""
+    explained = 0
+    checked = _spread(sorted(state.detections), CAST_SHADOW_FRAMES)
+    for frame in checked:
+        det = state.detections[frame]
+        behind, shaded = np.zeros(det.area, dtype=bool), np.zeros(det.area, dtype=bool)
+        for other in casters:
+            k = np.searchsorted(other.frames, frame)
+            if k >= len(other.frames) or other.frames[k] != frame:
+                continue
+            yaw = 0.0 if np.isnan(other.yaw[k]) else float(other.yaw[k])
+            window, sil, _, shade = cast(camera, other.attributes.shape, other.positions[k], size, yaw, reach=reach)
+            ys, xs = det.ys - window.top, det.xs - window.left
+            inside = (ys >= 0) & (ys < sil.shape[0]) & (xs >= 0) & (xs < sil.shape[1])
+            behind[inside] |= sil[ys[inside], xs[inside]]
+            shaded[inside] |= shade[ys[inside], xs[inside]]
+        seen_shaded = (shaded & ~behind).sum()
+        if seen_shaded >= CAST_SHADOW_SHARE * (~behind).sum() and seen_shaded >= MIN_SHADED_SHARE * det.area:
+            explained += 1
+    return explained >= CAST_SHADOW_MAJORITY * len(checked)
+
+
 def _without_cast_shadows(tracks: list[LiftedTrack], states: dict[int, TrackState], camera: Camera, size: float,
                           reach: np.ndarray) -> list[LiftedTrack]:
-    """The tracks without the grey ones that the other tracks' shadows explain (reach: the video's light,
-    light_reach). On most of CAST_SHADOW_FRAMES frames spread over its detections, at least CAST_SHADOW_SHARE of its
-    segment not behind another track's primitive lies in the shadow of one at its fitted pose, and that is at least
-    MIN_SHADED_SHARE of the segment (one wholly behind another tracklet's primitive, a piece or a duplicate of it, is
-    association's to judge; pixels behind a primitive are its whatever they show): a shadow
-    cut off from its caster's segment, which a grey caster's (a grey cube's) is, and which _without_shadows does not
-    judge. A grey object standing in another's shadow still rises out of it in the image."""
-    kept = []
-    for track in tracks:
-        state = states.get(track.id)
-        if track.attributes.color != "gray" or state is None or not state.detections:
-            kept.append(track)
-            continue
-        explained = 0
-        checked = _spread(sorted(state.detections), CAST_SHADOW_FRAMES)
-        for frame in checked:
-            det = state.detections[frame]
-            behind, shaded = np.zeros(det.area, dtype=bool), np.zeros(det.area, dtype=bool)
-            for other in tracks:
-                k = np.searchsorted(other.frames, frame)
-                if other is track or k >= len(other.frames) or other.frames[k] != frame:
-                    continue
-                yaw = 0.0 if np.isnan(other.yaw[k]) else float(other.yaw[k])
-                window, sil, _, shade = cast(camera, other.attributes.shape, other.positions[k], size, yaw, reach=reach)
-                ys, xs = det.ys - window.top, det.xs - window.left
-                inside = (ys >= 0) & (ys < sil.shape[0]) & (xs >= 0) & (xs < sil.shape[1])
-                behind[inside] |= sil[ys[inside], xs[inside]]
-                shaded[inside] |= shade[ys[inside], xs[inside]]
-            seen_shaded = (shaded & ~behind).sum()  # pixels behind another primitive are its (a piece, a duplicate)
-            if seen_shaded >= CAST_SHADOW_SHARE * (~behind).sum() and seen_shaded >= MIN_SHADED_SHARE * det.area:
-                explained += 1
-        if explained < CAST_SHADOW_MAJORITY * len(checked):
-            kept.append(track)
-    return kept
+    """The tracks without the grey ones that the other tracks' shadows explain (_in_cast_shadows): a shadow cut off
+    from its caster's segment, which a grey caster's (a grey cube's) is, and which _without_shadows does not judge.
+    A grey object standing in another's shadow still rises out of it in the image."""
+    return [track for track in tracks
+            if track.attributes.color != "gray" or not states.get(track.id) or not states[track.id].detections
+            or not _in_cast_shadows(states[track.id], [t for t in tracks if t is not track], camera, size, reach)]
 
 
 def _without_shadows(tracks: list[LiftedTrack], appearance: dict[int, np.ndarray], size: float) -> list[LiftedTrack]:

@@ -15,6 +15,10 @@ under the primitive's upward surface (geometry.upward_surface) counts as shadow-
 for nor against, and a segment pixel there half (TOP_SEGMENT_EVIDENCE): a top face gets the light the
 floor gets, so a grey top on a grey floor is labelled floor, and counting it against the primitive slid
 the fit toward the camera, onto its free shadow, by up to half the object.
+
+With the video's light (``reach``, perception.shadows) the primitive's cast shadow moves with it (``cast``): a
+shadow-like pixel under that shadow, in the segment or outside it, counts as a segment pixel under the silhouette.
+A grey object's segment may hold its own deep shadow; the body and its shadow then explain the image together.
 """
 
 from __future__ import annotations

@@ -58,7 +58,9 @@ def kinetic_energy(world: World, rollout) -> np.ndarray:
             + 0.5 * np.einsum("n,tn,tn->t", inertias, rollout.yaw_rates, rollout.yaw_rates))
 
 
-PROPERTY_SETTINGS = settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+# derandomize: CI runs every clean clone with no example database; a fixed example sequence keeps its verdict
+# reproducible (a random run found the at-rest bound below too short, twenty-fifth round)
+PROPERTY_SETTINGS = settings(max_examples=60, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])
 
 
 @PROPERTY_SETTINGS
@@ -91,7 +93,8 @@ def test_rollouts_terminate_with_everything_at_rest(world):
     rollout = simulate(world, horizon_frames=HORIZON)
     assert rollout.notes == ()
     assert len(rollout.events) < MAX_EVENTS
-    # Speeds are at most 4 m/s and mu >= 0.05, so every slide ends within 4 / (0.05 g) = 8.2 s;
-    # check the flows end: the last frame's speeds equal those of a longer rollout's at that time.
-    longer = simulate(world, horizon_frames=HORIZON * 3)
+    # Speeds are at most 4 m/s and mu >= 0.05, so a lone slide ends within 4 / (0.05 g) = 8.2 s; a spin feeds its
+    # slide and a late collision starts a new one (a random case still slid at 0.15 m/s at 9 s): check the flows end
+    # within 30 s.
+    longer = simulate(world, horizon_frames=HORIZON * 10)
     assert np.all(np.linalg.norm(longer.velocities[-1], axis=1) == 0.0)

@@ -13,7 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from world.camera import pixel_rays, project  # the one owner of the pinhole model
+from world.camera import backproject_to_height, pixel_rays, project  # the one owner of the pinhole model
 from world.types import Camera
 
 
@@ -59,8 +59,8 @@ def primitive_window(camera: Camera, kind: str, centre: np.ndarray, size: float,
     return Box2D(top, bottom, left, right)
 
 
-_IMAGE_RAYS: dict[tuple, np.ndarray] = {}  # camera parameters -> (H, W, 3) rays of every pixel (a video keeps its camera)
-_IMAGE_RAYS_KEPT = 4  # cameras whose rays are kept (about 3.7 MB each at 480 x 320)
+_CAMERA_ARRAYS_KEPT = 4  # cameras whose per-pixel arrays are kept (rays about 3.7 MB each at 480 x 320)
+_CAMERA_ARRAYS: dict[tuple, dict] = {}  # camera parameters -> {what: read-only array(s)} (a video keeps its camera)
 
 
 def _camera_key(camera: Camera) -> tuple:
@@ -68,59 +68,50 @@ def _camera_key(camera: Camera) -> tuple:
             tuple(np.asarray(camera.position, float).ravel()), tuple(np.asarray(camera.rotation, float).ravel()))
 
 
+def _per_camera(camera: Camera, what: str, compute):
+    """``compute()``'s read-only array (or tuple of arrays) for this camera, computed once and kept for the last
+    _CAMERA_ARRAYS_KEPT cameras."""
+    key = _camera_key(camera)
+    arrays = _CAMERA_ARRAYS.get(key)
+    if arrays is None:
+        if len(_CAMERA_ARRAYS) >= _CAMERA_ARRAYS_KEPT:
+            _CAMERA_ARRAYS.pop(next(iter(_CAMERA_ARRAYS)))
+        arrays = _CAMERA_ARRAYS[key] = {}
+    if what not in arrays:
+        value = compute()
+        for array in value if isinstance(value, tuple) else (value,):
+            array.flags.writeable = False
+        arrays[what] = value
+    return arrays[what]
+
+
+def _pixel_grid(camera: Camera) -> tuple[np.ndarray, np.ndarray]:
+    """(H, W) float u and v of every pixel centre."""
+    v, u = np.mgrid[0:camera.height, 0:camera.width].astype(float)
+    return u, v
+
+
 def image_rays(camera: Camera) -> np.ndarray:
     """(H, W, 3) read-only world ray directions of every pixel (world.camera.pixel_rays), computed once per camera."""
-    key = _camera_key(camera)
-    rays = _IMAGE_RAYS.get(key)
-    if rays is None:
-        v, u = np.mgrid[0:camera.height, 0:camera.width].astype(float)
-        rays = pixel_rays(camera, u, v)
-        rays.flags.writeable = False
-        if len(_IMAGE_RAYS) >= _IMAGE_RAYS_KEPT:
-            _IMAGE_RAYS.pop(next(iter(_IMAGE_RAYS)))
-        _IMAGE_RAYS[key] = rays
-    return rays
-
-
-_FLOOR_POINTS: dict[tuple, np.ndarray] = {}  # camera parameters -> (H, W, 2) floor points of every pixel
+    return _per_camera(camera, "rays", lambda: pixel_rays(camera, *_pixel_grid(camera)))
 
 
 def floor_points(camera: Camera) -> np.ndarray:
-    """(H, W, 2) read-only world xy (m) where each pixel's ray meets the floor z = 0; NaN at and above the horizon.
-    Computed once per camera (as image_rays)."""
-    key = _camera_key(camera)
-    points = _FLOOR_POINTS.get(key)
-    if points is None:
-        rays = image_rays(camera)
-        origin = np.asarray(camera.position, float)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            scale = -origin[2] / rays[..., 2]
-        scale = np.where(scale > 0, scale, np.nan)
-        points = origin[:2] + rays[..., :2] * scale[..., None]
-        points.flags.writeable = False
-        if len(_FLOOR_POINTS) >= _IMAGE_RAYS_KEPT:
-            _FLOOR_POINTS.pop(next(iter(_FLOOR_POINTS)))
-        _FLOOR_POINTS[key] = points
-    return points
-
-
-_FLOOR_PLANES: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+    """(H, W, 2) read-only world xy (m) where each pixel's ray meets the floor z = 0 (world.camera.backproject_to_height);
+    NaN at and above the horizon. Computed once per camera."""
+    def compute() -> np.ndarray:
+        u, v = _pixel_grid(camera)
+        points = backproject_to_height(camera, np.stack([u.ravel(), v.ravel()], axis=1), 0.0)
+        return np.ascontiguousarray(points[:, :2].reshape(camera.height, camera.width, 2))
+    return _per_camera(camera, "floor", compute)
 
 
 def floor_planes(camera: Camera) -> tuple[np.ndarray, np.ndarray]:
     """floor_points as two contiguous read-only (H, W) float32 planes, x and y (m): per-pixel tests over a window
     read them faster than the interleaved (H, W, 2) array."""
-    key = _camera_key(camera)
-    planes = _FLOOR_PLANES.get(key)
-    if planes is None:
-        points = floor_points(camera)
-        planes = (np.ascontiguousarray(points[..., 0], dtype=np.float32), np.ascontiguousarray(points[..., 1], dtype=np.float32))
-        for plane in planes:
-            plane.flags.writeable = False
-        if len(_FLOOR_PLANES) >= _IMAGE_RAYS_KEPT:
-            _FLOOR_PLANES.pop(next(iter(_FLOOR_PLANES)))
-        _FLOOR_PLANES[key] = planes
-    return planes
+    points = floor_points(camera)
+    return _per_camera(camera, "floor planes", lambda: (np.ascontiguousarray(points[..., 0], dtype=np.float32),
+                                                        np.ascontiguousarray(points[..., 1], dtype=np.float32)))
 
 
 def window_rays(camera: Camera, window: Box2D) -> np.ndarray:

@@ -45,8 +45,8 @@ class RecordingLifter(PrimitiveLifter):
         self.count_record: dict[int, dict[str, list[tuple[int, ...]]]] = {}
         self._counts: dict[str, list[tuple[int, ...]]] = {}
 
-    def shape_fits(self, camera, detection, labels, free_top=False):
-        fits = super().shape_fits(camera, detection, labels, free_top)
+    def shape_fits(self, camera, detection, labels, free_top=False, reach=None):
+        fits = super().shape_fits(camera, detection, labels, free_top, reach)
         for kind, fit in fits.items():
             window, sil = silhouette(camera, kind, fit.centre, self.size, fit.yaw)
             counts = (0, 0, 0, 0, detection.area)
@@ -61,9 +61,9 @@ class RecordingLifter(PrimitiveLifter):
             self._counts.setdefault(kind, []).append(counts)
         return fits
 
-    def shape_scores(self, camera, track, segments, frames_used, frames, free_top=False):
+    def shape_scores(self, camera, track, segments, frames_used, frames, free_top=False, reach=None):
         self._counts = {}
-        scores = super().shape_scores(camera, track, segments, frames_used, frames, free_top)
+        scores = super().shape_scores(camera, track, segments, frames_used, frames, free_top, reach)
         self.shape_record[track.id], self.count_record[track.id] = scores, self._counts
         return scores
 

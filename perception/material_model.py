@@ -150,40 +150,103 @@ def track_features(windows: list[AppearanceWindow], color: str) -> np.ndarray | 
 
 
 @dataclass(frozen=True)
+class TreeEnsemble:
+    """Boosted regression trees (bench.train_attributes: scikit-learn's HistGradientBoostingClassifier, exported):
+    raw log-odds = baseline + the sum over trees of the leaf each input reaches. Nodes of all trees in flat
+    (nodes,) arrays: ``feature`` (int, -1 at a leaf), ``threshold`` (go left when x[feature] <= threshold),
+    ``missing_left`` (where a NaN goes), ``left`` / ``right`` (node indices), ``value`` (a leaf's log-odds
+    term); ``roots`` (trees,) the index of each tree's first node."""
+
+    baseline: float
+    feature: np.ndarray
+    threshold: np.ndarray
+    missing_left: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    value: np.ndarray
+    roots: np.ndarray
+
+    def __post_init__(self):
+        nodes = self.feature.shape
+        for name in ("threshold", "missing_left", "left", "right", "value"):
+            if getattr(self, name).shape != nodes:
+                raise ValueError(f"material model trees: {name} expected {nodes}, got {getattr(self, name).shape}")
+        inner = self.feature >= 0
+        if np.any(self.left[inner] >= nodes[0]) or np.any(self.right[inner] >= nodes[0]) or np.any(self.roots >= nodes[0]):
+            raise ValueError("material model trees: a node index points past the nodes")
+
+    def raw(self, x: np.ndarray) -> float:
+        """Log-odds of one (inputs,) vector."""
+        total = self.baseline
+        for node in self.roots:
+            while self.feature[node] >= 0:
+                value = x[self.feature[node]]
+                go_left = self.missing_left[node] if np.isnan(value) else value <= self.threshold[node]
+                node = self.left[node] if go_left else self.right[node]
+            total += self.value[node]
+        return float(total)
+
+    def to_json(self) -> dict:
+        return {"baseline": self.baseline, "feature": self.feature.tolist(), "threshold": self.threshold.tolist(),
+                "missing_left": self.missing_left.tolist(), "left": self.left.tolist(), "right": self.right.tolist(),
+                "value": self.value.tolist(), "roots": self.roots.tolist()}
+
+    @staticmethod
+    def from_json(document: dict) -> "TreeEnsemble":
+        return TreeEnsemble(float(document["baseline"]), np.asarray(document["feature"], np.int64),
+                            np.asarray(document["threshold"], float), np.asarray(document["missing_left"], bool),
+                            np.asarray(document["left"], np.int64), np.asarray(document["right"], np.int64),
+                            np.asarray(document["value"], float), np.asarray(document["roots"], np.int64))
+
+
+@dataclass(frozen=True)
 class MaterialModel:
-    """Logistic regression on standardised TRACK_FEATURES with one bias per shape, P(metal) =
-    sigmoid((bias[shape] + weights . (x - mean) / scale) / temperature)."""
+    """P(metal) = sigmoid(z / temperature) from TRACK_FEATURES standardised, x = (features - mean) / scale, and
+    the perceived shape: with ``trees``, z = trees.raw(x followed by the shape's one-hot over SHAPE_KINDS);
+    else a logistic regression with one bias per shape, z = bias[shape] + weights . x."""
 
     features: tuple[str, ...]
     mean: np.ndarray
     scale: np.ndarray
-    weights: np.ndarray
-    bias: dict
+    weights: np.ndarray | None
+    bias: dict | None
     temperature: float
+    trees: TreeEnsemble | None = None
 
     def __post_init__(self):
         if self.features != TRACK_FEATURES:
             raise ValueError(f"material model: features {self.features} differ from the code's {TRACK_FEATURES}; retrain")
-        for name in ("mean", "scale", "weights"):
+        for name in ("mean", "scale") + (() if self.trees is not None else ("weights",)):
             if getattr(self, name).shape != (len(self.features),):
                 raise ValueError(f"material model: {name} expected ({len(self.features)},)")
-        if set(self.bias) != set(SHAPE_KINDS) or not self.temperature > 0:
-            raise ValueError("material model: a bias per shape kind and a positive temperature expected")
+        if self.trees is None and set(self.bias or {}) != set(SHAPE_KINDS):
+            raise ValueError("material model: a bias per shape kind expected (or trees)")
+        if not self.temperature > 0:
+            raise ValueError("material model: a positive temperature expected")
 
     def log_odds(self, features: np.ndarray, shape: str) -> float:
         """Log-odds of metal, temperature applied (features: (len(TRACK_FEATURES),))."""
-        z = self.bias[shape] + float(self.weights @ ((features - self.mean) / self.scale))
+        x = (features - self.mean) / self.scale
+        if self.trees is not None:
+            z = self.trees.raw(np.concatenate([x, [float(shape == kind) for kind in SHAPE_KINDS]]))
+        else:
+            z = self.bias[shape] + float(self.weights @ x)
         return z / self.temperature
 
     def to_json(self) -> dict:
-        return {"features": list(self.features), "mean": self.mean.tolist(), "scale": self.scale.tolist(),
-                "weights": self.weights.tolist(), "bias": dict(self.bias), "temperature": self.temperature}
+        document = {"features": list(self.features), "mean": self.mean.tolist(), "scale": self.scale.tolist(),
+                    "temperature": self.temperature}
+        if self.trees is not None:
+            return {**document, "trees": self.trees.to_json()}
+        return {**document, "weights": self.weights.tolist(), "bias": dict(self.bias)}
 
     @staticmethod
     def from_json(document: dict) -> "MaterialModel":
+        trees = TreeEnsemble.from_json(document["trees"]) if "trees" in document else None
         return MaterialModel(tuple(document["features"]), np.asarray(document["mean"], float), np.asarray(document["scale"], float),
-                             np.asarray(document["weights"], float), {k: float(v) for k, v in document["bias"].items()},
-                             float(document["temperature"]))
+                             None if trees else np.asarray(document["weights"], float),
+                             None if trees else {k: float(v) for k, v in document["bias"].items()},
+                             float(document["temperature"]), trees)
 
 
 @lru_cache(maxsize=1)

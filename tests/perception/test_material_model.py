@@ -134,8 +134,9 @@ def test_conflicting_frames_give_an_unsure_probability_that_sums_to_one(pair_sce
     assert max(probabilities.values()) <= 0.9, probabilities
 
 
-def test_a_small_training_run_learns_metal_from_rubber():
-    """bench.train_attributes.fit on synthetic shiny and matte discs under random light, floor and paint
+@pytest.mark.parametrize("kind", ["trees", "logistic"])
+def test_a_small_training_run_learns_metal_from_rubber(kind):
+    """bench.train_attributes.fit (each model kind) on synthetic shiny and matte discs under random light, floor and paint
     tells held-out discs apart far above chance."""
     rng = np.random.default_rng(5)
     colors = [c for c in CLEVR_PALETTE_RGB if c != "gray"]
@@ -154,7 +155,39 @@ def test_a_small_training_run_learns_metal_from_rubber():
 
     x, y = sample(60)
     shapes = np.tile(np.eye(len(SHAPE_KINDS))[0], (len(y), 1))
-    model = fit(x, shapes, y)
+    model = fit(x, shapes, y, kind=kind)
     x_test, y_test = sample(40)
     z = log_odds(model, x_test, np.tile(np.eye(len(SHAPE_KINDS))[0], (len(y_test), 1)))
     assert np.mean((z > 0) == (y_test > 0.5)) >= 0.9
+
+
+def test_exported_boosted_trees_give_scikit_learns_log_odds_and_survive_json():
+    """The shipped model kind: HistGradientBoostingClassifier's trees, exported for numpy-only inference,
+    give its decision_function on unseen inputs (missing values too), before and after a JSON round trip."""
+    from sklearn.ensemble import HistGradientBoostingClassifier
+
+    from bench.train_attributes import exported_trees
+    from perception.material_model import TreeEnsemble
+
+    rng = np.random.default_rng(11)
+    x = rng.normal(size=(500, 5))
+    x[rng.random(x.shape) < 0.05] = np.nan
+    y = (np.nan_to_num(x[:, 0]) * np.nan_to_num(x[:, 1]) + np.nan_to_num(x[:, 2]) > 0.2).astype(int)
+    boosted = HistGradientBoostingClassifier(max_depth=3, max_iter=40, random_state=0).fit(x, y)
+    trees = exported_trees(boosted)
+    unseen = rng.normal(size=(300, 5))
+    unseen[rng.random(unseen.shape) < 0.1] = np.nan
+    expected = boosted.decision_function(unseen)
+    for model in (trees, TreeEnsemble.from_json(trees.to_json())):
+        assert np.allclose([model.raw(row) for row in unseen], expected, rtol=0, atol=1e-12)
+
+
+def test_a_material_model_with_broken_trees_is_refused():
+    from perception.material_model import MaterialModel, shipped_model
+
+    document = shipped_model().to_json()
+    if "trees" not in document:
+        pytest.fail("the shipped material model is expected to be boosted trees")
+    document["trees"]["left"] = document["trees"]["left"][:-1]
+    with pytest.raises(ValueError, match="trees"):
+        MaterialModel.from_json(document)

@@ -183,6 +183,7 @@ def test_exported_boosted_trees_give_scikit_learns_log_odds_and_survive_json():
 
 
 def test_a_material_model_with_broken_trees_is_refused():
+    """A shipped model whose node arrays disagree in length is a clear error at load, not a wrong P(metal)."""
     from perception.material_model import MaterialModel, shipped_model
 
     document = shipped_model().to_json()
@@ -191,3 +192,14 @@ def test_a_material_model_with_broken_trees_is_refused():
     document["trees"]["left"] = document["trees"]["left"][:-1]
     with pytest.raises(ValueError, match="trees"):
         MaterialModel.from_json(document)
+
+
+def test_each_renderer_weighs_the_same_in_training():
+    """renderer_weights: a renderer with 8 samples and one with 2 (set names 'renderer-look') get equal totals, mean 1."""
+    from bench.train_attributes import renderer_weights
+
+    sets = ["mujoco-a"] * 5 + ["mujoco-b"] * 3 + ["blender-c"] * 2
+    weights = renderer_weights(sets)
+    assert weights.mean() == pytest.approx(1.0)
+    assert weights[:8].sum() == pytest.approx(weights[8:].sum())
+    assert weights[0] == pytest.approx(weights[7])

@@ -42,7 +42,8 @@ from perception.attributes import (
     color_probabilities,
     shape_probabilities,
 )
-from perception.material_model import MODEL_PATH, TRACK_FEATURES, MaterialModel, TreeEnsemble, metal_probability, track_features
+from perception.material_model import (MODEL_PATH, TRACK_FEATURES, MaterialModel, TreeEnsemble, metal_probability, shape_one_hot,
+                                       track_features)
 from perception.pipeline import mean_overlaps, rank_shapes
 from world.types import SHAPE_KINDS
 
@@ -88,7 +89,7 @@ def design(rows: list[dict]) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[d
         if f is None:
             continue
         features.append(f)
-        shapes.append([row["shape"] == k for k in SHAPE_KINDS])
+        shapes.append(shape_one_hot(row["shape"]))
         labels.append(row["truth"]["material"] == "metal")
         kept.append(row)
     return np.asarray(features), np.asarray(shapes, float), np.asarray(labels, float), kept

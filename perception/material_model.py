@@ -149,6 +149,11 @@ def track_features(windows: list[AppearanceWindow], color: str) -> np.ndarray | 
     return np.concatenate([np.median(table, axis=0), [flicker]])
 
 
+def shape_one_hot(shape: str) -> np.ndarray:
+    """(len(SHAPE_KINDS),) float 1 at the perceived shape's kind: the trees' shape inputs."""
+    return np.array([float(shape == kind) for kind in SHAPE_KINDS])
+
+
 @dataclass(frozen=True)
 class TreeEnsemble:
     """Boosted regression trees (bench.train_attributes: scikit-learn's HistGradientBoostingClassifier, exported):
@@ -228,7 +233,7 @@ class MaterialModel:
         """Log-odds of metal, temperature applied (features: (len(TRACK_FEATURES),))."""
         x = (features - self.mean) / self.scale
         if self.trees is not None:
-            z = self.trees.raw(np.concatenate([x, [float(shape == kind) for kind in SHAPE_KINDS]]))
+            z = self.trees.raw(np.concatenate([x, shape_one_hot(shape)]))
         else:
             z = self.bias[shape] + float(self.weights @ x)
         return z / self.temperature
@@ -243,9 +248,10 @@ class MaterialModel:
     @staticmethod
     def from_json(document: dict) -> "MaterialModel":
         trees = TreeEnsemble.from_json(document["trees"]) if "trees" in document else None
+        logistic = trees is None
         return MaterialModel(tuple(document["features"]), np.asarray(document["mean"], float), np.asarray(document["scale"], float),
-                             None if trees else np.asarray(document["weights"], float),
-                             None if trees else {k: float(v) for k, v in document["bias"].items()},
+                             np.asarray(document["weights"], float) if logistic else None,
+                             {k: float(v) for k, v in document["bias"].items()} if logistic else None,
                              float(document["temperature"]), trees)
 
 

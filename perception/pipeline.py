@@ -755,9 +755,18 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
     for head in sorted(heads):
         chain, k = [kept[head]], head
         while k in successor:
-            k = successor[k]
-            # the samples where the two overlap were left out of the link: strays
-            _, chain[-1], continued = _linked_pair(chain[-1], kept[k], appearance)
+            earlier, k = k, successor[k]
+            # the samples where the two overlap were left out of the link: strays. The link was chosen
+            # between whole tracklets; chain[-1] may since have lost its first samples to the link before
+            # it, and if that leaves no split of the overlap, the whole tracklets' split holds.
+            linked = _linked_pair(chain[-1], kept[k], appearance)
+            if linked is None:
+                _, _, continued = pairs[earlier][k]
+                chain[-1] = _samples(chain[-1], chain[-1].frames < continued.frames[0])
+                if chain[-1].frames.size == 0:
+                    chain.pop()
+            else:
+                _, chain[-1], continued = linked
             chain.append(continued)
         result.append(_join(chain, appearance, decide) if len(chain) > 1 else chain[0])
     return result

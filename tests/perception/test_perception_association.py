@@ -309,3 +309,28 @@ def test_a_tracklet_that_takes_on_another_objects_colour_is_cut_there_and_a_rere
     # another colour for fewer than COLOUR_RUN_FRAMES detections at the end: not enough to cut
     brief, frames = _painted_track([("red", 60), ("blue", COLOUR_RUN_FRAMES - 1)])
     assert _colour_cuts(brief, frames) == []
+
+
+def test_a_chain_whose_middle_tracklet_lost_its_first_samples_still_joins(monkeypatch):
+    """The links are chosen between whole tracklets; a middle tracklet then loses the strays it was born on to
+    the link before it, and the link after it may no longer split (too few samples left, as a real video with
+    a two-sample middle piece showed): the whole tracklets' split holds, never a crash."""
+    import perception.pipeline as pipeline
+
+    def weak_start(track, frames):
+        stray = track.frames < frames  # fitted on a touching segment, off the object
+        return replace(track, weights=np.where(stray, 0.6, 1.0), positions=track.positions + np.outer(stray, [0.0, 0.5, 0.0]))
+
+    a = _tracklet(0, range(0, 19), (0.0, 0.0), (0.02, 0.0))
+    b = weak_start(_tracklet(1, range(17, 41), (0.02 * 17, 0.0), (0.02, 0.0)), 19)
+    c = weak_start(_tracklet(2, range(39, 128), (0.02 * 39, 0.0), (0.02, 0.0)), 41)
+    whole_starts = {0, 17, 39}
+    linked_pair = pipeline._linked_pair
+
+    def refused_once_trimmed(earlier, later, appearance):
+        return None if int(earlier.frames[0]) not in whole_starts else linked_pair(earlier, later, appearance)
+
+    monkeypatch.setattr(pipeline, "_linked_pair", refused_once_trimmed)
+    (chain,) = _associate([a, b, c], SIZE)
+    assert np.all(np.diff(chain.frames) > 0) and chain.frames[0] == 0 and chain.frames[-1] == 127
+    assert np.allclose(chain.positions[:, 0], 0.02 * chain.frames)

@@ -952,19 +952,47 @@ def _identify(observations: Observations, config: FitConfig) -> tuple[World, Fit
     anchor = _anchor(world, track_fits, observations, config) if usable else None
     provenance = {"fit": report.to_dict(), "source": dict(observations.source)}
     precise_ids = precise_tracks(observations)
-    episodes = contact_episode_starts(candidates, observations, precise_ids)
-    inside = [c for c in episodes if 0 <= c.frame < observations.num_frames]
-    observed = tuple(sorted({(min(c.bodies), max(c.bodies), c.frame) for c in inside}, key=lambda c: (c[2], c[0], c[1])))
-    unconfirmed = frozenset((min(c.bodies), max(c.bodies), c.frame) for c in inside if not c.corroborated)
-    world = replace(world, provenance=provenance, anchor=anchor, observed_collisions=observed)
+    world = replace(world, provenance=provenance, anchor=anchor)
+    replayed = replayed_collisions(world, config.simulator)
+    world = replace(world, observed_collisions=recorded_collisions(candidates, observations, precise_ids, replayed))
     precise = sorted(precise_ids & {t.id for t in usable})
     decided = frozenset((a, b) for i, a in enumerate(precise) for b in precise[i + 1 :])
-    return with_replayed_collisions(world, config.simulator, decided, observations, unconfirmed), report
+    return with_replayed_collisions(world, config.simulator, decided, observations, replayed=replayed), report
+
+
+def recorded_collisions(candidates: Sequence[CandidateCollision], observations: Observations, precise: frozenset[int],
+                        replayed: Sequence[tuple[int, int, int]]) -> tuple[tuple[int, int, int], ...]:
+    """(a, b, frame), a < b, sorted by frame: what the track analysis records of the video's collisions.
+
+    A candidate with one-sided evidence (CandidateCollision.corroborated false) counts only where the fitted
+    replay (``replayed``: replayed_collisions) makes the pair collide within the contact-episode gap; then one
+    collision per contact episode (segments.contact_episode_starts; precise: segments.precise_tracks). In that
+    order: an unconfirmed candidate starting an episode would otherwise take the episode's corroborated
+    collision out of the record with it (another body's impulse read on a pair that then collides).
+    """
+    confirmed = [c for c in candidates
+                 if c.corroborated or _near((min(c.bodies), max(c.bodies), c.frame), replayed, observations.fps)]
+    inside = [c for c in contact_episode_starts(confirmed, observations, precise) if 0 <= c.frame < observations.num_frames]
+    return tuple(sorted({(min(c.bodies), max(c.bodies), c.frame) for c in inside}, key=lambda c: (c[2], c[0], c[1])))
+
+
+def replayed_collisions(world: World, simulator: Callable[..., object] | None = None) -> list[tuple[int, int, int]]:
+    """(a, b, frame), a < b, of the collisions the world's replay makes inside its observed frames."""
+    replay = (simulator or simulate)(world, (), max(world.observed_frames, 1))
+    return [(min(e.bodies), max(e.bodies), e.frame) for e in replay.events
+            if e.kind == "collision" and e.frame < world.observed_frames]
+
+
+def _near(event: tuple[int, int, int], events: Sequence[tuple[int, int, int]], fps: float) -> bool:
+    """An event (a, b, frame) of ``events`` has the same pair within the contact-episode gap of ``event``."""
+    gap = frames_in(CONTACT_EPISODE_GAP_SECONDS, fps)
+    return any(other[:2] == event[:2] and abs(other[2] - event[2]) <= gap for other in events)
 
 
 def with_replayed_collisions(
     world: World, simulator: Callable[..., object] | None = None, decided_pairs: frozenset[tuple[int, int]] = frozenset(),
     observations: Observations | None = None, unconfirmed: frozenset[tuple[int, int, int]] = frozenset(),
+    replayed: Sequence[tuple[int, int, int]] | None = None,
 ) -> World:
     """The world with its fitted replay's collisions in the video added to ``observed_collisions``, and its
     unconfirmed ones the replay does not make left out.
@@ -985,14 +1013,12 @@ def with_replayed_collisions(
     ``unconfirmed``: recorded collisions (a, b, frame), a < b, whose evidence
     is one-sided (segments.CandidateCollision.corroborated): kept only when
     the replay makes the pair collide within the contact-episode gap.
+    ``replayed``: the world's ``replayed_collisions``, when already computed.
     """
-    replay = (simulator or simulate)(world, (), max(world.observed_frames, 1))
-    gap = frames_in(CONTACT_EPISODE_GAP_SECONDS, world.fps)
-    replayed = [(min(e.bodies), max(e.bodies), e.frame) for e in replay.events
-                if e.kind == "collision" and e.frame < world.observed_frames]
+    replayed = replayed_collisions(world, simulator) if replayed is None else replayed
 
     def near(event: tuple[int, int, int], events: Sequence[tuple[int, int, int]]) -> bool:
-        return any(other[:2] == event[:2] and abs(other[2] - event[2]) <= gap for other in events)
+        return _near(event, events, world.fps)
 
     given = tuple(world.observed_collisions or ())
     recorded = [c for c in given if c not in unconfirmed or near(c, replayed)]

@@ -1,6 +1,7 @@
 """The record of observed collisions from perceived tracks counts one collision per contact episode, as MuJoCo
 does (world.identify.segments.contact_episode_starts): a push through perception's noise gives one pair several
-change points while the bodies never separate; a pair that separates and meets again collided twice."""
+change points while the bodies never separate; a pair that separates and meets again collided twice; an
+episode's start whose evidence is one-sided does not take its corroborated collision out of the record."""
 
 from __future__ import annotations
 
@@ -12,7 +13,9 @@ import pytest
 from synth.scene import SceneSpec
 from synth.simulate import simulate
 from tests.world.identify.test_perceived_tracks import CAMERA, _perceived, _spec
-from world.identify.segments import contact_episode_starts, find_candidate_collisions, precise_tracks
+from world.identify.fit import recorded_collisions
+from world.identify.segments import CandidateCollision, contact_episode_starts, find_candidate_collisions, precise_tracks
+from world.observations import ObjectTrack, Observations, default_shape
 
 
 def _collisions(result, pair) -> list[int]:
@@ -62,3 +65,27 @@ def test_precise_tracks_keep_their_touch_episodes():
     assert precise_tracks(exact) == {0, 1, 2}
     candidates = find_candidate_collisions(exact)
     assert contact_episode_starts(candidates, exact, precise_tracks(exact)) == sorted(candidates, key=lambda c: (c.frame, c.bodies))
+
+
+def _resting(object_id: int, kind: str, xs: np.ndarray) -> ObjectTrack:
+    """A body's track over len(xs) frames at (xs[k], 0) m (yaw 0), perceived-like weights."""
+    shape = default_shape(kind)
+    positions = np.column_stack([xs, np.zeros(xs.size), np.full(xs.size, shape.rest_height)])
+    return ObjectTrack(object_id, shape, np.arange(xs.size), positions, np.zeros(xs.size), np.ones(xs.size, bool),
+                       np.full(xs.size, 0.6))
+
+
+def _candidate(frame: int, corroborated: bool) -> CandidateCollision:
+    return CandidateCollision((0, 1), frame, np.zeros((2, 2)), np.zeros((2, 2)), np.array([1.0, 0.0]), corroborated)
+
+
+def test_a_one_sided_start_the_replay_does_not_make_leaves_the_episode_its_corroborated_collision():
+    """fit.recorded_collisions: a one-sided candidate (another body's impulse read on a touching pair) opens a
+    contact episode, and the pair's corroborated collision follows in it. When the replay does not make the
+    first, the record keeps the second (main before: the episode's start stood for it and was then dropped,
+    taking the collision with it); when the replay makes the first, the first stands for the episode."""
+    frames = 40
+    spheres = Observations((_resting(0, "sphere", np.zeros(frames)), _resting(1, "sphere", np.full(frames, 0.41))), 25.0, frames, None)
+    candidates = [_candidate(10, False), _candidate(20, True)]
+    assert recorded_collisions(candidates, spheres, frozenset(), replayed=[]) == ((0, 1, 20),)
+    assert recorded_collisions(candidates, spheres, frozenset(), replayed=[(0, 1, 11)]) == ((0, 1, 10),)

@@ -1017,17 +1017,14 @@ def with_replayed_collisions(
     """
     replayed = replayed_collisions(world, simulator) if replayed is None else replayed
 
-    def near(event: tuple[int, int, int], events: Sequence[tuple[int, int, int]]) -> bool:
-        return _near(event, events, world.fps)
-
     given = tuple(world.observed_collisions or ())
-    recorded = [c for c in given if c not in unconfirmed or near(c, replayed)]
+    recorded = [c for c in given if c not in unconfirmed or _near(c, replayed, world.fps)]
     tracks = {t.id: t for t in observations.objects} if observations is not None else None
 
     def shown(a: int, b: int, frame: int) -> bool:
         return tracks is None or (a in tracks and b in tracks and seen_touching(tracks[a], tracks[b], frame))
 
-    added = [c for c in replayed if (c[0], c[1]) not in decided_pairs and not near(c, recorded) and shown(*c)]
+    added = [c for c in replayed if (c[0], c[1]) not in decided_pairs and not _near(c, recorded, world.fps) and shown(*c)]
     record = tuple(recorded + added)
     return world if record == given else replace(world, observed_collisions=record)
 

@@ -571,8 +571,16 @@ def _linked_pair(earlier: LiftedTrack, later: LiftedTrack,
     out (cheapest first, then fewest): the strays ``later``'s tracker track was born on, the strays
     ``earlier``'s ended on, or some of each; a sample fitted on a touching or split segment (weight below
     CLEAN_WEIGHT) counts WEAK_STRAY_SHARE of one (at a contact the tracker's two pieces of one object
-    overlap by a few such samples); more, and the two are seen at once: not one object's pieces in turn."""
+    overlap by a few such samples); more, and the two are seen at once: not one object's pieces in turn.
+    Where they do not overlap, the last weak samples of ``earlier`` or the first of ``later`` (up to
+    LINK_OVERLAP, each below CLEAN_WEIGHT) may be left out the same way: a tracklet that ends on a stray fit
+    of a touching segment (40 cm off on a development video) would send its motion's prediction astray."""
     splits = np.union1d(later.frames[later.frames <= earlier.frames[-1]], earlier.frames[earlier.frames >= later.frames[0]])
+    for count in range(1, LINK_OVERLAP + 1):  # or the last weak samples of ``earlier``, the first of ``later``
+        if count < earlier.frames.size and np.all(earlier.weights[-count:] < CLEAN_WEIGHT):
+            splits = np.union1d(splits, earlier.frames[-count:][:1])
+        if count < later.frames.size and np.all(later.weights[:count] < CLEAN_WEIGHT):
+            splits = np.union1d(splits, later.frames[count:count + 1])
     options = []
     for split in np.append(splits, earlier.frames[-1] + 1):
         kept_earlier, kept_later = earlier.frames < split, later.frames >= split

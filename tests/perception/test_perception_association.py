@@ -334,3 +334,18 @@ def test_a_chain_whose_middle_tracklet_lost_its_first_samples_still_joins(monkey
     (chain,) = _associate([a, b, c], SIZE)
     assert np.all(np.diff(chain.frames) > 0) and chain.frames[0] == 0 and chain.frames[-1] == 127
     assert np.allclose(chain.positions[:, 0], 0.02 * chain.frames)
+
+
+def test_a_tracklet_ending_on_a_stray_fit_still_links_to_its_continuation():
+    """A tracklet whose last sample is a weak fit 40 cm off (a touching segment, as on a development video)
+    predicts its motion astray; leaving that sample out, the next tracklet continues it. A clean last sample
+    there is the object's own, and the link is refused."""
+    before = _tracklet(0, range(0, 40), (0.0, 0.0), (0.02, 0.0))
+    stray = before.positions.copy()
+    stray[-1, 1] += 0.4
+    weights = before.weights.copy()
+    weights[-1] = 0.4
+    after = _tracklet(1, range(40, 128), (0.02 * 40, 0.0), (0.02, 0.0))
+    (joined,) = _associate([replace(before, positions=stray, weights=weights), after], SIZE)
+    assert len(joined.frames) == 39 + 88 and np.allclose(joined.positions[:, 1], 0.0)
+    assert len(_associate([replace(before, positions=stray), after], SIZE)) == 2

@@ -578,9 +578,9 @@ def _linked_pair(earlier: LiftedTrack, later: LiftedTrack,
     splits = np.union1d(later.frames[later.frames <= earlier.frames[-1]], earlier.frames[earlier.frames >= later.frames[0]])
     for count in range(1, LINK_OVERLAP + 1):  # or the last weak samples of ``earlier``, the first of ``later``
         if count < earlier.frames.size and np.all(earlier.weights[-count:] < CLEAN_WEIGHT):
-            splits = np.union1d(splits, earlier.frames[-count:][:1])
+            splits = np.union1d(splits, earlier.frames[[-count]])
         if count < later.frames.size and np.all(later.weights[:count] < CLEAN_WEIGHT):
-            splits = np.union1d(splits, later.frames[count:count + 1])
+            splits = np.union1d(splits, later.frames[[count]])
     options = []
     for split in np.append(splits, earlier.frames[-1] + 1):
         kept_earlier, kept_later = earlier.frames < split, later.frames >= split

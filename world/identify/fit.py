@@ -970,10 +970,9 @@ def recorded_collisions(candidates: Sequence[CandidateCollision], observations: 
     order: an unconfirmed candidate starting an episode would otherwise take the episode's corroborated
     collision out of the record with it (another body's impulse read on a pair that then collides).
     """
-    confirmed = [c for c in candidates
-                 if c.corroborated or _near((min(c.bodies), max(c.bodies), c.frame), replayed, observations.fps)]
+    confirmed = [c for c in candidates if c.corroborated or _near(c.event, replayed, observations.fps)]
     inside = [c for c in contact_episode_starts(confirmed, observations, precise) if 0 <= c.frame < observations.num_frames]
-    return tuple(sorted({(min(c.bodies), max(c.bodies), c.frame) for c in inside}, key=lambda c: (c[2], c[0], c[1])))
+    return tuple(sorted({c.event for c in inside}, key=lambda c: (c[2], c[0], c[1])))
 
 
 def replayed_collisions(world: World, simulator: Callable[..., object] | None = None) -> list[tuple[int, int, int]]:
@@ -991,11 +990,9 @@ def _near(event: tuple[int, int, int], events: Sequence[tuple[int, int, int]], f
 
 def with_replayed_collisions(
     world: World, simulator: Callable[..., object] | None = None, decided_pairs: frozenset[tuple[int, int]] = frozenset(),
-    observations: Observations | None = None, unconfirmed: frozenset[tuple[int, int, int]] = frozenset(),
-    replayed: Sequence[tuple[int, int, int]] | None = None,
+    observations: Observations | None = None, replayed: Sequence[tuple[int, int, int]] | None = None,
 ) -> World:
-    """The world with its fitted replay's collisions in the video added to ``observed_collisions``, and its
-    unconfirmed ones the replay does not make left out.
+    """The world with its fitted replay's collisions in the video added to ``observed_collisions``.
 
     The track analysis (stage 1) misses a weak contact (a light touch of a
     heavy body); the fitted replay, which must explain every track, still
@@ -1010,15 +1007,13 @@ def with_replayed_collisions(
     apart, or does not show, is the fit's error too (a misplaced perceived
     track, a fragment track the fit moved onto a neighbour).
 
-    ``unconfirmed``: recorded collisions (a, b, frame), a < b, whose evidence
-    is one-sided (segments.CandidateCollision.corroborated): kept only when
-    the replay makes the pair collide within the contact-episode gap.
-    ``replayed``: the world's ``replayed_collisions``, when already computed.
+    One-sided collisions the replay does not make are already out of the
+    record (``recorded_collisions``). ``replayed``: the world's ``replayed_collisions``, when already computed.
     """
     replayed = replayed_collisions(world, simulator) if replayed is None else replayed
 
     given = tuple(world.observed_collisions or ())
-    recorded = [c for c in given if c not in unconfirmed or _near(c, replayed, world.fps)]
+    recorded = list(given)
     tracks = {t.id: t for t in observations.objects} if observations is not None else None
 
     def shown(a: int, b: int, frame: int) -> bool:

@@ -96,7 +96,7 @@ class CandidateCollision:
     of its own and no pair event) or the pair's closing speed alone does (a
     pair event, no change point): weak evidence, which the record of
     observed collisions keeps only where the fitted replay makes the pair
-    collide (fit.with_replayed_collisions).
+    collide (fit.recorded_collisions).
     """
 
     bodies: tuple[int, int]
@@ -109,6 +109,11 @@ class CandidateCollision:
     @property
     def delta_v(self) -> np.ndarray:
         return self.post - self.pre
+
+    @property
+    def event(self) -> tuple[int, int, int]:
+        """(a, b, frame), a < b: the collision as World.observed_collisions holds it."""
+        return min(self.bodies), max(self.bodies), self.frame
 
 
 def _runs(frames: np.ndarray, max_gap: int = MAX_BRIDGED_GAP) -> list[np.ndarray]:

@@ -19,8 +19,8 @@ from bench.metrics import EVENT_TOLERANCE_FRAMES
 from synth.annotate import annotation_document
 from synth.scene import ObjectSpec, SceneSpec, sample_camera
 from synth.simulate import simulate as simulate_in_mujoco
-from world.identify.fit import identify, with_replayed_collisions
-from world.identify.segments import MOVING_STEP, find_candidate_collisions, precise_tracks, seen_touching, touch_events
+from world.identify.fit import identify, recorded_collisions, replayed_collisions, with_replayed_collisions
+from world.identify.segments import MOVING_STEP, CandidateCollision, find_candidate_collisions, precise_tracks, seen_touching, touch_events
 from world.observations import ObjectTrack, Observations, default_shape
 from world.rollout import simulate
 from world.types import Body, BodyState, World
@@ -226,11 +226,16 @@ def test_an_unconfirmed_collision_stays_where_the_replay_makes_it():
     world = _hit_at_rest()
     ((_, _, frame),) = [(0, 1, e.frame) for e in simulate(world, (), 60).events if e.kind == "collision"]
     made, far, confirmed = (0, 1, frame + 2), (0, 1, frame + 30), (0, 1, frame + 45)
-    kept = with_replayed_collisions(replace(world, observed_collisions=(made,)), unconfirmed=frozenset({made}))
-    assert kept.observed_collisions == (made,)
+    tracks, replayed = _tracks(world), replayed_collisions(world)
+
+    def record(*events: tuple[tuple[int, int, int], bool]) -> tuple[tuple[int, int, int], ...]:
+        candidates = [CandidateCollision((a, b), f, np.zeros((2, 2)), np.zeros((2, 2)), np.array([1.0, 0.0]), corroborated)
+                      for (a, b, f), corroborated in events]
+        recorded = recorded_collisions(candidates, tracks, frozenset({0, 1}), replayed)
+        return with_replayed_collisions(replace(world, observed_collisions=recorded), replayed=replayed).observed_collisions
+
+    assert record((made, False)) == (made,)
     # 30 frames after the replay's only collision: dropped, and the replay's own collision is recorded instead.
-    dropped = with_replayed_collisions(replace(world, observed_collisions=(far,)), unconfirmed=frozenset({far}))
-    assert dropped.observed_collisions == ((0, 1, frame),)
+    assert record((far, False)) == ((0, 1, frame),)
     # A corroborated one 45 frames after it stays.
-    both = with_replayed_collisions(replace(world, observed_collisions=(made, confirmed)), unconfirmed=frozenset({made}))
-    assert both.observed_collisions == (made, confirmed)
+    assert record((made, False), (confirmed, True)) == (made, confirmed)

@@ -1,11 +1,12 @@
-"""Pinhole projection and footprint visibility (for CLEVRER-style in/out events).
+"""Pinhole projection, footprint outlines and view events (CLEVRER-style in/out).
 
-A body is *visible* at a frame when it is active and at least one point of its
-footprint outline on the support plane (the centre plus 8 outline points:
-square corners and edge midpoints, or 8 points on the circle) projects inside
-the image with positive depth. Events follow CLEVRER: ``in`` is the first
-visible frame of a visibility run that starts after frame 0, ``out`` the first
-frame no longer visible (a body removed by an edit does not "leave the view").
+A body is *visible* at a frame when it is active and its centre projects inside
+the image with positive depth (``centre_in_view``: the generator's
+``inside_camera_view`` rule, so a body resting just past the border with part of
+its footprint still in the picture has left the view). Events follow CLEVRER:
+``in`` is the first visible frame of a visibility run that starts after frame 0,
+``out`` the first frame no longer visible (a body removed by an edit does not
+"leave the view").
 """
 
 from __future__ import annotations
@@ -87,20 +88,12 @@ def footprint_outline(shape: Shape, positions: np.ndarray, yaw: np.ndarray) -> n
 
 def centre_in_view(camera: Camera, points: np.ndarray) -> np.ndarray:
     """(M,) bool: each (M, 3) point (an object centre, m) projects inside the image, in front of the camera.
-    The generator's ``inside_camera_view`` (CLEVRER in/out events) and perception's ``visible`` follow this rule."""
+    The one visibility rule: the generator's ``inside_camera_view`` (CLEVRER in/out events), perception's
+    ``visible`` and the replay's ``visible`` (world.rollout) follow it."""
     pixels, depth = project_with_depth(camera, points)
     with np.errstate(invalid="ignore"):
         return (depth > 0) & (pixels[:, 0] >= -0.5) & (pixels[:, 0] <= camera.width - 0.5) \
             & (pixels[:, 1] >= -0.5) & (pixels[:, 1] <= camera.height - 0.5)
-
-
-def footprint_visible(camera: Camera, shape: Shape, positions: np.ndarray, yaw: np.ndarray) -> np.ndarray:
-    """(T,) bool: some footprint point of the body projects inside the image, in front of the camera."""
-    pixels, depth = project_with_depth(camera, footprint_outline(shape, positions, yaw))
-    with np.errstate(invalid="ignore"):
-        inside = (depth > 1e-9) & (pixels[..., 0] >= 0) & (pixels[..., 0] < camera.width) \
-            & (pixels[..., 1] >= 0) & (pixels[..., 1] < camera.height)
-    return inside.any(axis=-1)
 
 
 def view_events(visible: np.ndarray, active: np.ndarray) -> list[tuple[str, int, int]]:

@@ -46,7 +46,7 @@ from typing import Callable, Sequence
 import numpy as np
 
 from world.timebase import CONTACT_EPISODE_GAP_SECONDS, frame_of
-from world.camera import footprint_visible, view_events
+from world.camera import centre_in_view, view_events
 from world.contacts import (CIRCLE, SQUARE, Contact, Footprint, PlanarMotion, clearance_step, closing, collision_impulse, contact_normal_speed,
                             contact_patch, footprint_distance, pair_friction, predict_contact)
 from world.edits import apply_edits
@@ -522,7 +522,7 @@ def simulate(
         if edited.camera is None:
             visible[:, k] = act
         else:
-            visible[:, k] = act & footprint_visible(edited.camera, body.shape, p, y)
+            visible[:, k] = act & centre_in_view(edited.camera, p)
 
     events = merge_contact_episodes([e for _, _, e in sorted(engine.events, key=lambda item: (item[0], item[1]))],
                                     apart=lambda pair, t0, t1: _apart_for_gap(edited, engine.logs, pair, t0, t1))

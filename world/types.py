@@ -438,7 +438,7 @@ class Rollout:
     times: (T,) seconds, ``frame / fps`` for frames 0..T-1.
     positions: (T, N, 3) float64 metres; velocities: (T, N, 3) m/s.
     yaw: (T, N) radians. active: (T, N) bool, body exists in the world.
-    visible: (T, N) bool, body is inside the camera view (all True
+    visible: (T, N) bool, body centre is inside the camera view (all True
     when the world has no camera).
     events: in time order. horizon_frames: T.
     notes: engine remarks (event cap reached, contacts skipped), usually empty.

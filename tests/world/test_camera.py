@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from tests.world.scenes import CUBE, body, world_of
-from world.camera import footprint_visible, look_at_camera, project, view_events
+from world.camera import centre_in_view, look_at_camera, project, view_events
 from world.rollout import simulate
 from world.types import Camera
 
@@ -33,11 +33,26 @@ def test_look_at_puts_the_target_at_the_principal_point():
     assert np.isnan(behind).all()
 
 
-def test_visibility_uses_the_footprint_not_only_the_centre():
+def test_visibility_is_the_centre_in_the_image():
     camera = overhead_camera()  # sees x in [-10, 10), y in (-5, 5]
-    centres = np.array([[10.1, 0.0, 0.2], [10.3, 0.0, 0.2], [0.0, 0.0, 0.2]])
-    visible = footprint_visible(camera, CUBE, centres, np.zeros(3))
-    assert visible.tolist() == [True, False, True]
+    centres = np.array([[9.9, 0.0, 0.0], [10.1, 0.0, 0.0], [0.0, 4.9, 0.0], [0.0, 5.1, 0.0], [0.0, 0.0, 11.0]])
+    assert centre_in_view(camera, centres).tolist() == [True, False, True, False, False]  # the last one: behind
+
+
+def test_a_body_resting_across_the_border_has_left_the_view_when_its_centre_has():
+    # The generator's in/out events (CLEVRER's inside_camera_view) follow the centre: a cube that slides out
+    # and stops with part of its footprint still in the picture has left the view, and the replay says so.
+    camera = overhead_camera()
+    world = world_of(body(0, (9.0, 0.0), (1.0, 0.0), shape=CUBE, friction=0.06), fps=25.0, camera=camera)
+    rollout = simulate(world, horizon_frames=100)
+    centre = rollout.positions[:, 0]
+    near_edge = centre - (CUBE.half_extent, 0.0, 0.0)
+    in_view = centre_in_view(camera, centre)
+    assert in_view[0] and not in_view[-1] and centre_in_view(camera, near_edge[-1:])[0]  # at rest across the border
+    crossing = int(np.argmax(~in_view))
+    outs = [e for e in rollout.events if e.kind == "out"]
+    assert [(e.bodies, e.frame) for e in outs] == [((0,), crossing)]
+    assert not rollout.visible[crossing:, 0].any()
 
 
 def test_view_events_are_first_visible_and_first_invisible_frames():

@@ -968,11 +968,24 @@ def recorded_collisions(candidates: Sequence[CandidateCollision], observations: 
     replay (``replayed``: replayed_collisions) makes the pair collide within the contact-episode gap; then one
     collision per contact episode (segments.contact_episode_starts; precise: segments.precise_tracks). In that
     order: an unconfirmed candidate starting an episode would otherwise take the episode's corroborated
-    collision out of the record with it (another body's impulse read on a pair that then collides).
+    collision out of the record with it (another body's impulse read on a pair that then collides). A
+    collision of a pair not both precise is then timed by the replay (``_timed_by_replay``).
     """
     confirmed = [c for c in candidates if c.corroborated or _near(c.event, replayed, observations.fps)]
     inside = [c for c in contact_episode_starts(confirmed, observations, precise) if 0 <= c.frame < observations.num_frames]
-    return tuple(sorted({c.event for c in inside}, key=lambda c: (c[2], c[0], c[1])))
+    timed = {c.event if set(c.bodies) <= precise else _timed_by_replay(c.event, replayed, observations.fps) for c in inside}
+    return tuple(sorted(timed, key=lambda c: (c[2], c[0], c[1])))
+
+
+def _timed_by_replay(event: tuple[int, int, int], replayed: Sequence[tuple[int, int, int]], fps: float) -> tuple[int, int, int]:
+    """The recorded ``event`` at the frame of the replay's collision of its pair within the contact-episode gap,
+    if the replay makes one. For a pair of noisy tracks the track analysis says which pairs collide and the
+    fitted replay when: a change point read on a few noisy samples lands early where a track is lost before
+    the contact, the replay meets it where the fitted courses do (dev 24242, perceived tracks: the record's
+    frames off MuJoCo's by 0.93 frames on average, 43 % early; the replay's by 0.64, 22 %). Two precise tracks
+    keep their own frame (oracle tracks: 0.15 against the replay's 0.47)."""
+    nearest = _nearest(event, replayed, fps)
+    return event if nearest is None else nearest
 
 
 def replayed_collisions(world: World, simulator: Callable[..., object] | None = None) -> list[tuple[int, int, int]]:
@@ -982,10 +995,17 @@ def replayed_collisions(world: World, simulator: Callable[..., object] | None = 
             if e.kind == "collision" and e.frame < world.observed_frames]
 
 
+def _nearest(event: tuple[int, int, int], events: Sequence[tuple[int, int, int]], fps: float) -> tuple[int, int, int] | None:
+    """The event (a, b, frame) of ``events`` of the same pair closest in time to ``event`` within the
+    contact-episode gap (the earlier on a tie), or None."""
+    gap = frames_in(CONTACT_EPISODE_GAP_SECONDS, fps)
+    same = [other for other in events if other[:2] == event[:2] and abs(other[2] - event[2]) <= gap]
+    return min(same, key=lambda other: (abs(other[2] - event[2]), other[2])) if same else None
+
+
 def _near(event: tuple[int, int, int], events: Sequence[tuple[int, int, int]], fps: float) -> bool:
     """An event (a, b, frame) of ``events`` has the same pair within the contact-episode gap of ``event``."""
-    gap = frames_in(CONTACT_EPISODE_GAP_SECONDS, fps)
-    return any(other[:2] == event[:2] and abs(other[2] - event[2]) <= gap for other in events)
+    return _nearest(event, events, fps) is not None
 
 
 def with_replayed_collisions(

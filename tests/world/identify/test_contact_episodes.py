@@ -88,4 +88,20 @@ def test_a_one_sided_start_the_replay_does_not_make_leaves_the_episode_its_corro
     spheres = Observations((_resting(0, "sphere", np.zeros(frames)), _resting(1, "sphere", np.full(frames, 0.41))), 25.0, frames, None)
     candidates = [_candidate(10, False), _candidate(20, True)]
     assert recorded_collisions(candidates, spheres, frozenset(), replayed=[]) == ((0, 1, 20),)
-    assert recorded_collisions(candidates, spheres, frozenset(), replayed=[(0, 1, 11)]) == ((0, 1, 10),)
+    assert recorded_collisions(candidates, spheres, frozenset(), replayed=[(0, 1, 11)]) == ((0, 1, 11),)  # at the replay's frame
+
+
+@pytest.mark.parametrize("replayed, precise, recorded", [
+    ([(0, 1, 22)], frozenset(), ((0, 1, 22),)),  # the replay's frame: the change point at 20 read early
+    ([(0, 1, 19), (0, 1, 22)], frozenset(), ((0, 1, 19),)),  # the closest of the pair's replayed collisions
+    ([(0, 1, 26)], frozenset(), ((0, 1, 20),)),  # beyond the contact-episode gap (5 frames at 25 fps): another collision
+    ([(0, 2, 21)], frozenset(), ((0, 1, 20),)),  # another pair
+    ([(0, 1, 22)], frozenset({0}), ((0, 1, 22),)),  # one precise track: still the replay's
+    ([(0, 1, 22)], frozenset({0, 1}), ((0, 1, 20),)),  # two precise tracks: their own change point
+])
+def test_a_recorded_collision_of_noisy_tracks_takes_the_frame_of_the_replay_s_collision(replayed, precise, recorded):
+    """fit.recorded_collisions: for noisy tracks the track analysis says which pairs collide and the fitted
+    replay when (a change point lands a frame or two early where a track is lost before the contact)."""
+    frames = 40
+    spheres = Observations((_resting(0, "sphere", np.zeros(frames)), _resting(1, "sphere", np.full(frames, 0.41))), 25.0, frames, None)
+    assert recorded_collisions([_candidate(20, True)], spheres, precise, replayed=replayed) == recorded

@@ -968,24 +968,18 @@ def recorded_collisions(candidates: Sequence[CandidateCollision], observations: 
     replay (``replayed``: replayed_collisions) makes the pair collide within the contact-episode gap; then one
     collision per contact episode (segments.contact_episode_starts; precise: segments.precise_tracks). In that
     order: an unconfirmed candidate starting an episode would otherwise take the episode's corroborated
-    collision out of the record with it (another body's impulse read on a pair that then collides). A
-    collision of a pair not both precise is then timed by the replay (``_timed_by_replay``).
+    collision out of the record with it (another body's impulse read on a pair that then collides).
+
+    A collision of a pair not both precise takes the frame of the replay's nearest collision of the pair within
+    the contact-episode gap, if it makes one: for noisy tracks the track analysis says which pairs collide and
+    the fitted replay when (a change point read on a few noisy samples lands early where a track is lost before
+    the contact; dev 24242, perceived tracks: the record's frames off MuJoCo's by 0.93 frames on average, 43 %
+    early, the replay's by 0.64, 22 %). Two precise tracks keep their own frame (oracle tracks: 0.15 against 0.47).
     """
     confirmed = [c for c in candidates if c.corroborated or _near(c.event, replayed, observations.fps)]
     inside = [c for c in contact_episode_starts(confirmed, observations, precise) if 0 <= c.frame < observations.num_frames]
-    timed = {c.event if set(c.bodies) <= precise else _timed_by_replay(c.event, replayed, observations.fps) for c in inside}
+    timed = {c.event if set(c.bodies) <= precise else (_nearest(c.event, replayed, observations.fps) or c.event) for c in inside}
     return tuple(sorted(timed, key=lambda c: (c[2], c[0], c[1])))
-
-
-def _timed_by_replay(event: tuple[int, int, int], replayed: Sequence[tuple[int, int, int]], fps: float) -> tuple[int, int, int]:
-    """The recorded ``event`` at the frame of the replay's collision of its pair within the contact-episode gap,
-    if the replay makes one. For a pair of noisy tracks the track analysis says which pairs collide and the
-    fitted replay when: a change point read on a few noisy samples lands early where a track is lost before
-    the contact, the replay meets it where the fitted courses do (dev 24242, perceived tracks: the record's
-    frames off MuJoCo's by 0.93 frames on average, 43 % early; the replay's by 0.64, 22 %). Two precise tracks
-    keep their own frame (oracle tracks: 0.15 against the replay's 0.47)."""
-    nearest = _nearest(event, replayed, fps)
-    return event if nearest is None else nearest
 
 
 def replayed_collisions(world: World, simulator: Callable[..., object] | None = None) -> list[tuple[int, int, int]]:
@@ -1033,14 +1027,13 @@ def with_replayed_collisions(
     replayed = replayed_collisions(world, simulator) if replayed is None else replayed
 
     given = tuple(world.observed_collisions or ())
-    recorded = list(given)
     tracks = {t.id: t for t in observations.objects} if observations is not None else None
 
     def shown(a: int, b: int, frame: int) -> bool:
         return tracks is None or (a in tracks and b in tracks and seen_touching(tracks[a], tracks[b], frame))
 
-    added = [c for c in replayed if (c[0], c[1]) not in decided_pairs and not _near(c, recorded, world.fps) and shown(*c)]
-    record = tuple(recorded + added)
+    added = tuple(c for c in replayed if (c[0], c[1]) not in decided_pairs and not _near(c, given, world.fps) and shown(*c))
+    record = given + added
     return world if record == given else replace(world, observed_collisions=record)
 
 

@@ -18,6 +18,8 @@ fitted primitives' visible silhouettes (pipeline.instance_map).
 * position error on the plane (xy, in object radii = 0.2 m) of matched tracks
   over frames with the object fully in view and weight > 0;
 * colour / shape / material accuracy of matched tracks, and the wrong shapes by kind (true -> read);
+* segments the tracker split between tracks, by the true object centres they hold: one object's segment split
+  gives each track a piece to lift as if it were a whole object;
 * wall time and CPU time per video (decode + perceive), per stage; and the CPU time of `physmind build`
   (decode + perceive + fit: world.identify.fit.identify and the world document), unless --no-build;
 * end to end: perceived vs oracle observations -> world.identify.fit.identify
@@ -42,6 +44,7 @@ from perception.pipeline import instance_map, perceive_frames
 from perception.video import read_video
 from synth.masks import decode_mask
 from world.identify.fit import identify
+from world.camera import project
 from world.io import load_camera, world_to_dict
 from world.observations import Observations
 from world.rollout import simulate
@@ -172,8 +175,10 @@ def evaluate_scene(root: Path, index: int, e2e: bool, build: bool = True) -> dic
                 event_errors.append(abs(truth_frame - our_frame))
                 event_signed[kind].append(our_frame - truth_frame)
 
+    split = split_segments(inter.get("tracks", []), camera, locations)
     result = {
         "scene": index, "wall_s": wall, "cpu_s": cpu, "fit_cpu_s": fit_cpu, "recall": (tp_recall, n_true), "precision": (tp_precision, n_pred),
+        "split_segments": split,
         "switches": switches, "fragmented": fragmented, "errors": errors, "attributes": attribute_hits,
         "objects": len(true_ids), "tracks": len(pred_ids), "missed_objects": missed_objects,
         "timings": inter["timings"], "event_errors": event_errors, "event_signed": event_signed,
@@ -190,6 +195,34 @@ def evaluate_scene(root: Path, index: int, e2e: bool, build: bool = True) -> dic
         oracle = Observations.from_clevrer_annotation(root / "annotations" / f"annotation_{name}.json", camera=camera)
         result["e2e"] = {"perceived": _score(perceived, root, name), "oracle": _score(oracle, root, name)}
     return result
+
+
+def split_segments(tracks: list, camera, centres: dict[int, dict[int, np.ndarray]]) -> tuple[int, int]:
+    """(segments holding at most one true object's centre, segments holding two or more) among the segments the
+    tracker split between tracks (perception.track: k-means among same-coloured claimants; the pieces of one
+    segment share frame, component and colour label). tracks: perception.types.TrackState; centres: object id ->
+    frame -> (3,) true centre, m. A centre counts when its pixel is one of the segment's."""
+    pieces: dict[tuple[int, int, int], list] = {}
+    for track in tracks:
+        for frame, detection in track.detections.items():
+            if detection.split:
+                pieces.setdefault((frame, detection.component, detection.hue_label), []).append(detection)
+    one = more = 0
+    for (frame, _, _), parts in pieces.items():
+        mask = np.zeros((camera.height, camera.width), dtype=bool)
+        for part in parts:
+            mask[part.ys, part.xs] = True
+        held = 0
+        for per_frame in centres.values():
+            if frame not in per_frame:
+                continue
+            u, v = np.rint(project(camera, np.asarray(per_frame[frame], dtype=float)))
+            held += bool(0 <= v < camera.height and 0 <= u < camera.width and mask[int(v), int(u)])
+        if held >= 2:
+            more += 1
+        else:
+            one += 1
+    return one, more
 
 
 def shape_confusions(features: list[tuple]) -> str:
@@ -283,6 +316,10 @@ def main(argv: list[str] | None = None) -> int:
     reasons = "".join(f"; scene {r['scene']}: {r['refused']}" for r in refused)
     print(f"| videos perception refused (error) | {len(refused)}{reasons} | 0 |")
     print(f"| spurious tracks | {sum(max(r['tracks'] - (r['objects'] - r['missed_objects']), 0) for r in results)} | |")
+    split = [r["split_segments"] for r in results if "split_segments" in r]  # results saved before the column have none
+    if split:
+        print(f"| segments split between tracks, holding one true object / two or more | {sum(s[0] for s in split)} / "
+              f"{sum(s[1] for s in split)} | 0 / - |")
     if errors.size:
         print(f"| position error median (radii) | {np.median(errors):.3f} | <= 0.1 |")
         print(f"| position error p95 (radii) | {np.percentile(errors, 95):.3f} | |")

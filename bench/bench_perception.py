@@ -43,11 +43,12 @@ from bench.metrics import GroundTruth, score_world
 from perception.pipeline import instance_map, perceive_frames
 from perception.video import read_video
 from synth.masks import decode_mask
-from world.identify.fit import identify
 from world.camera import project
+from world.identify.fit import identify
 from world.io import load_camera, world_to_dict
 from world.observations import Observations
 from world.rollout import simulate
+from world.types import Camera
 
 RADIUS = 0.2  # m, object radius (the unit of position errors)
 MIN_AREA = 50
@@ -197,7 +198,7 @@ def evaluate_scene(root: Path, index: int, e2e: bool, build: bool = True) -> dic
     return result
 
 
-def split_segments(tracks: list, camera, centres: dict[int, dict[int, np.ndarray]]) -> tuple[int, int]:
+def split_segments(tracks: list, camera: Camera, centres: dict[int, dict[int, np.ndarray]]) -> tuple[int, int]:
     """(segments holding at most one true object's centre, segments holding two or more) among the segments the
     tracker split between tracks (perception.track: k-means among same-coloured claimants; the pieces of one
     segment share frame, component and colour label). tracks: perception.types.TrackState; centres: object id ->

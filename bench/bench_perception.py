@@ -210,15 +210,9 @@ def split_segments(tracks: list, camera: Camera, centres: dict[int, dict[int, np
                 pieces.setdefault((frame, detection.component, detection.hue_label), []).append(detection)
     one = more = 0
     for (frame, _, _), parts in pieces.items():
-        mask = np.zeros((camera.height, camera.width), dtype=bool)
-        for part in parts:
-            mask[part.ys, part.xs] = True
-        held = 0
-        for per_frame in centres.values():
-            if frame not in per_frame:
-                continue
-            u, v = np.rint(project(camera, np.asarray(per_frame[frame], dtype=float)))
-            held += bool(0 <= v < camera.height and 0 <= u < camera.width and mask[int(v), int(u)])
+        here = [per_frame[frame] for per_frame in centres.values() if frame in per_frame]
+        pixels = np.rint(project(camera, np.asarray(here, dtype=float).reshape(-1, 3)))  # (M, 2) u, v; NaN behind
+        held = sum(any(np.any((part.xs == u) & (part.ys == v)) for part in parts) for u, v in pixels)
         if held >= 2:
             more += 1
         else:

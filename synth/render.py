@@ -61,9 +61,13 @@ def render_scene(spec: SceneSpec, sim: SimResult, frames: int | None = None) -> 
 def write_mp4(path: Path, frames: np.ndarray, fps: float, crf: int = 18) -> None:
     """Encode (F, H, W, 3) uint8 frames as h264 (yuv420p) with PyAV.
 
-    Single-threaded x264 with fixed settings so the same frames give the
-    same decoded video; ``crf`` is x264's constant rate factor (higher =
-    stronger compression; the default look uses 18).
+    Single-threaded x264 with fixed settings and without its assembly
+    routines, so the same frames give the same video on every run and every
+    machine: with them, one process encoding one painted video four times
+    (decoding others in between) got four different videos, since x264's
+    assembly reads memory its caller never set (about 4x the encoding time:
+    2 s for 128 frames of 480 x 320). ``crf`` is x264's constant rate factor
+    (higher = stronger compression; the default look uses 18).
     """
     path.parent.mkdir(parents=True, exist_ok=True)
     with av.open(str(path), mode="w") as container:
@@ -71,7 +75,7 @@ def write_mp4(path: Path, frames: np.ndarray, fps: float, crf: int = 18) -> None
         stream.width = frames.shape[2]
         stream.height = frames.shape[1]
         stream.pix_fmt = "yuv420p"
-        stream.options = {"crf": str(int(crf)), "preset": "medium", "threads": "1"}
+        stream.options = {"crf": str(int(crf)), "preset": "medium", "threads": "1", "x264-params": "asm=0"}
         stream.thread_count = 1
         for image in frames:
             packet = stream.encode(av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24"))

@@ -33,25 +33,19 @@ def test_a_video_perception_refuses_counts_its_objects_as_missed_and_the_run_goe
     # fresh held-out set 63636, scene 54: main's blank check refused a real video and the bench stopped with a traceback
     import json
     import shutil
-    from fractions import Fraction
     from pathlib import Path
 
-    import av
     import numpy as np
 
     from bench.bench_perception import main
+    from synth.render import write_mp4
 
     data = Path(__file__).resolve().parents[1] / "data" / "synth"
     for folder, name in (("ground_truth", "scene_00000.json"), ("masks", "proposal_00000.json"), ("annotations", "annotation_00000.json")):
         (tmp_path / folder).mkdir()
         shutil.copy(data / folder / name, tmp_path / folder / name)
     (tmp_path / "videos").mkdir()
-    with av.open(str(tmp_path / "videos" / "video_00000.mp4"), mode="w") as container:  # black frames
-        stream = container.add_stream("libx264", rate=Fraction(25))
-        stream.width, stream.height, stream.pix_fmt = 480, 320, "yuv420p"
-        for _ in range(8):
-            container.mux(stream.encode(av.VideoFrame.from_ndarray(np.zeros((320, 480, 3), np.uint8), format="rgb24")))
-        container.mux(stream.encode())
+    write_mp4(tmp_path / "videos" / "video_00000.mp4", np.zeros((8, 320, 480, 3), np.uint8), 25.0)  # black frames
     out = tmp_path / "results.json"
     assert main([str(tmp_path), "--no-e2e", "--no-build", "--json", str(out)]) == 0
     (result,) = json.loads(out.read_text())

@@ -9,10 +9,8 @@ video would be. One object rests the whole video (its shadow, too).
 
 from __future__ import annotations
 
-from fractions import Fraction
 from pathlib import Path
 
-import av
 import numpy as np
 import pytest
 from scipy import ndimage as ndi
@@ -21,6 +19,7 @@ from perception.background import AMBIGUOUS, classify_pixels, estimate_backgroun
 from perception.geometry import silhouette
 from perception.pipeline import perceive_frames
 from perception.video import read_video
+from synth.render import write_mp4
 from world.camera import backproject_to_height
 from world.io import load_camera
 from world.types import CLEVR_PALETTE_RGB
@@ -102,12 +101,9 @@ def _render(seed: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _encode(path: Path, frames: np.ndarray, crf: int = 23) -> None:
-    with av.open(str(path), mode="w") as container:
-        stream = container.add_stream("libx264", rate=Fraction(25), options={"crf": str(crf)})
-        stream.width, stream.height, stream.pix_fmt = frames.shape[2], frames.shape[1], "yuv420p"
-        for image in frames:
-            container.mux(stream.encode(av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24")))
-        container.mux(stream.encode())
+    # the generator's encoder: single-threaded x264, so the same frames give the same video on every run (x264's
+    # default threading did not: four encodings of one painted video decoded to four different videos)
+    write_mp4(path, frames, 25.0, crf)
 
 
 def grainy(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:

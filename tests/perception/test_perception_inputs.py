@@ -5,7 +5,6 @@ from __future__ import annotations
 import argparse
 import json
 from dataclasses import replace
-from fractions import Fraction
 from pathlib import Path
 
 import numpy as np
@@ -14,21 +13,11 @@ import pytest
 from perception.background import estimate_background
 from perception.pipeline import perceive
 from perception.video import read_video
+from synth.render import write_mp4
 from world.io import camera_from_dict, load_camera
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "synth"
 TRUTH = DATA / "ground_truth" / "scene_00000.json"
-
-
-def _write_video(path: Path, frames: np.ndarray) -> None:
-    import av
-
-    with av.open(str(path), mode="w") as container:
-        stream = container.add_stream("libx264", rate=Fraction(25))
-        stream.width, stream.height, stream.pix_fmt = frames.shape[2], frames.shape[1], "yuv420p"
-        for image in frames:
-            container.mux(stream.encode(av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="rgb24")))
-        container.mux(stream.encode())
 
 
 @pytest.fixture(scope="module")
@@ -39,7 +28,7 @@ def floor_video(tmp_path_factory) -> Path:
     rng = np.random.default_rng(0)
     video = np.clip(floor[None] + rng.normal(0, 1.5, (16,) + floor.shape), 0, 255).astype(np.uint8)
     path = tmp_path_factory.mktemp("floor") / "floor.mp4"
-    _write_video(path, video)
+    write_mp4(path, video, 25.0)
     return path
 
 
@@ -50,7 +39,7 @@ def test_video_without_objects_is_a_clear_error(floor_video):
 
 def test_black_video_is_a_clear_error(tmp_path):
     path = tmp_path / "black.mp4"
-    _write_video(path, np.zeros((12, 320, 480, 3), np.uint8))
+    write_mp4(path, np.zeros((12, 320, 480, 3), np.uint8), 25.0)
     with pytest.raises(ValueError, match="blank"):
         perceive(path, load_camera(TRUTH))
 
@@ -71,7 +60,7 @@ def test_small_objects_on_a_flat_floor_are_not_blank():
 def test_static_video_with_objects_is_a_clear_error(tmp_path):
     frames, _ = read_video(DATA / "videos" / "video_00007.mp4", max_frames=1)
     path = tmp_path / "still.mp4"
-    _write_video(path, np.repeat(frames, 12, axis=0))
+    write_mp4(path, np.repeat(frames, 12, axis=0), 25.0)
     with pytest.raises(ValueError, match="nothing moves"):
         perceive(path, load_camera(TRUTH))
 
@@ -109,7 +98,7 @@ def short_clip(tmp_path_factory) -> Path:
     """The first 40 frames of fixture scene 7 (an unseen-by-tuning scene)."""
     frames, _ = read_video(DATA / "videos" / "video_00007.mp4", max_frames=40)
     path = tmp_path_factory.mktemp("clip") / "clip.mp4"
-    _write_video(path, frames)
+    write_mp4(path, frames, 25.0)
     return path
 
 

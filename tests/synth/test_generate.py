@@ -33,15 +33,10 @@ def test_same_seed_gives_same_bytes_and_frames(tmp_path):
     a, b = _files(first), _files(second)
     assert sorted(a) == ["annotations/annotation_00004.json", "ground_truth/scene_00004.json", "masks/proposal_00004.json", "questions.json"]
     assert a == b
-    frames_a = read_mp4(first / "videos" / "video_00004.mp4")
-    frames_b = read_mp4(second / "videos" / "video_00004.mp4")
+    video = "videos/video_00004.mp4"
+    assert (first / video).read_bytes() == (second / video).read_bytes()
+    frames_a = read_mp4(first / video)
     assert frames_a.shape == (128, 320, 480, 3)
-    # Usually bit-identical; about one run in three shows a few 4x2-pixel
-    # blocks off by 1-2 grey levels (0.002 % of values; cause not found yet,
-    # see docs/formats.md), so the check allows exactly that and no more.
-    difference = np.abs(frames_a.astype(int) - frames_b.astype(int))
-    assert difference.max() <= 2
-    assert np.count_nonzero(difference) <= 1e-4 * difference.size
     # The video shows the scene: frames change over time and are not blank.
     assert frames_a.std() > 5 and np.abs(frames_a[0].astype(int) - frames_a[-1].astype(int)).max() > 50
     assert main(["synth", "contact-sheet", str(first), "--frames", "0,64,127", "--png", str(tmp_path / "sheet.png")]) == 0

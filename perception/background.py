@@ -23,8 +23,8 @@ Evidence in a frame (classify_pixels):
   pixel of compression error, or grain the pixel showed as floor, gives no evidence;
 * candidates are judged by the ratio rho_c = frame_c / background_c: shadow = all channels
   darkened by the same factor (floor chroma kept, the chroma limit widened by the pixel's relative
-  noise) and not darker than a shadow can be -> floor / ambiguous; object = chroma changed
-  (coloured objects), much darker than any shadow (grey and dark objects), or brighter than the
+  noise) and not darker than a shadow can be -> floor / ambiguous; object = chroma changed (coloured
+  objects; below DARK_OBJECT by more than compression's error, CANDIDATE_DIFFERENCE grey levels), much darker than any shadow (grey and dark objects), or brighter than the
   floor (highlights, bright colours); ambiguous = shadow-like darkening of medium depth, which is
   what a lit grey object looks like as well (the silhouette fit, lift.py, treats it as neither);
   deep = floor chroma kept but darker than any soft shadow: a grey or dark object, or the core of a
@@ -247,10 +247,17 @@ def classify_pixels(frame: np.ndarray, background: Background, bounds: FloorRang
     mean = (ratio[0] + ratio[1] + ratio[2]) / 3  # float32, summed in channel order as ndarray.mean over 3 channels
     deviation = np.maximum(np.maximum(np.abs(ratio[0] - mean), np.abs(ratio[1] - mean)), np.abs(ratio[2] - mean))
     chroma = deviation / np.maximum(mean, 0.05)
-    limit = bounds.chroma_limit.ravel()[where]
+    # below DARK_OBJECT a chroma change is evidence only when it exceeds what compression does to any pixel (grey
+    # levels): in a deep shadow a few levels of h264 colour error are a large share of the pixel (Blender's sky-lit
+    # shadows on a blue-grey floor, (30, 41, 51) where the darkened floor is (35, 43, 45), were objects). Either way
+    # the pixel is foreground (OBJECT or DEEP): segments keep their pixels, the deep ones say "the floor darkened"
+    levels = np.maximum(np.maximum(np.abs(ratio[0] - mean) * bounds.divisor[0].ravel()[where],
+                                   np.abs(ratio[1] - mean) * bounds.divisor[1].ravel()[where]),
+                        np.abs(ratio[2] - mean) * bounds.divisor[2].ravel()[where])
+    coloured = (chroma >= bounds.chroma_limit.ravel()[where]) & ((levels >= CANDIDATE_DIFFERENCE) | (mean >= DARK_OBJECT))
     label = np.full(where.shape, AMBIGUOUS, dtype=np.uint8)
-    label[(mean >= FLOOR_RATIO) & (chroma < limit)] = FLOOR
-    label[(chroma >= limit) | (mean > BRIGHT_OBJECT)] = OBJECT
-    label[(chroma < limit) & (mean < DARK_OBJECT)] = DEEP
+    label[(mean >= FLOOR_RATIO) & ~coloured] = FLOOR
+    label[coloured | (mean > BRIGHT_OBJECT)] = OBJECT
+    label[~coloured & (mean < DARK_OBJECT)] = DEEP
     labels.ravel()[where] = label
     return labels

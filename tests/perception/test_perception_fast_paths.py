@@ -39,7 +39,9 @@ def _reference_labels(frame: np.ndarray, background: Background) -> np.ndarray:
             mean = ratio.mean()
             chroma = np.abs(ratio - mean).max() / max(mean, 0.05)
             limit = CHROMA_OBJECT + NOISE_MULTIPLE * noise[y, x] / max(image[y, x].mean(), 1.0)
-            if chroma >= limit or mean > BRIGHT_OBJECT:
+            levels = (np.abs(ratio - mean) * np.maximum(image[y, x], 1.0)).max()  # the chroma change in grey levels
+            coloured = chroma >= limit and (levels >= CANDIDATE_DIFFERENCE or mean >= DARK_OBJECT)
+            if coloured or mean > BRIGHT_OBJECT:
                 labels[y, x] = OBJECT
             elif mean < DARK_OBJECT:
                 labels[y, x] = DEEP

@@ -24,8 +24,9 @@ Evidence in a frame (classify_pixels):
 * candidates are judged by the ratio rho_c = frame_c / background_c: shadow = all channels
   darkened by the same factor (floor chroma kept, the chroma limit widened by the pixel's relative
   noise) and not darker than a shadow can be -> floor / ambiguous; object = chroma changed (coloured
-  objects; below DARK_OBJECT by more than compression's error, CANDIDATE_DIFFERENCE grey levels), much darker than any shadow (grey and dark objects), or brighter than the
-  floor (highlights, bright colours); ambiguous = shadow-like darkening of medium depth, which is
+  objects; below DARK_OBJECT also by more than compression's error, CANDIDATE_DIFFERENCE grey levels),
+  much darker than any shadow (grey and dark objects), or brighter than the floor (highlights, bright
+  colours); ambiguous = shadow-like darkening of medium depth, which is
   what a lit grey object looks like as well (the silhouette fit, lift.py, treats it as neither);
   deep = floor chroma kept but darker than any soft shadow: a grey or dark object, or the core of a
   hard shadow or of the contact shadow under an object (Blender's sun leaves 0.4 of the floor's

@@ -244,17 +244,16 @@ def classify_pixels(frame: np.ndarray, background: Background, bounds: FloorRang
     if where.size == 0:
         return labels
     pixels = frame.reshape(-1, 3)[where]
-    ratio = [pixels[:, c].astype(np.float32) / bounds.divisor[c].ravel()[where] for c in range(3)]
+    floor = [bounds.divisor[c].ravel()[where] for c in range(3)]
+    ratio = [pixels[:, c].astype(np.float32) / floor[c] for c in range(3)]
     mean = (ratio[0] + ratio[1] + ratio[2]) / 3  # float32, summed in channel order as ndarray.mean over 3 channels
-    deviation = np.maximum(np.maximum(np.abs(ratio[0] - mean), np.abs(ratio[1] - mean)), np.abs(ratio[2] - mean))
-    chroma = deviation / np.maximum(mean, 0.05)
+    off = [np.abs(ratio[c] - mean) for c in range(3)]
+    chroma = np.maximum(np.maximum(off[0], off[1]), off[2]) / np.maximum(mean, 0.05)
     # below DARK_OBJECT a chroma change is evidence only when it exceeds what compression does to any pixel (grey
     # levels): in a deep shadow a few levels of h264 colour error are a large share of the pixel (Blender's sky-lit
     # shadows on a blue-grey floor, (30, 41, 51) where the darkened floor is (35, 43, 45), were objects). Either way
     # the pixel is foreground (OBJECT or DEEP): segments keep their pixels, the deep ones say "the floor darkened"
-    levels = np.maximum(np.maximum(np.abs(ratio[0] - mean) * bounds.divisor[0].ravel()[where],
-                                   np.abs(ratio[1] - mean) * bounds.divisor[1].ravel()[where]),
-                        np.abs(ratio[2] - mean) * bounds.divisor[2].ravel()[where])
+    levels = np.maximum(np.maximum(off[0] * floor[0], off[1] * floor[1]), off[2] * floor[2])
     coloured = (chroma >= bounds.chroma_limit.ravel()[where]) & ((levels >= CANDIDATE_DIFFERENCE) | (mean >= DARK_OBJECT))
     label = np.full(where.shape, AMBIGUOUS, dtype=np.uint8)
     label[(mean >= FLOOR_RATIO) & ~coloured] = FLOOR

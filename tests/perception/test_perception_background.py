@@ -100,12 +100,6 @@ def _render(seed: int) -> tuple[np.ndarray, np.ndarray]:
     return np.stack(frames), np.stack(touched)
 
 
-def _encode(path: Path, frames: np.ndarray, crf: int = 23) -> None:
-    # the generator's encoder, which gives the same video for the same frames on every run (x264 with its assembly
-    # did not: four encodings of one painted video in one process gave four different videos)
-    write_mp4(path, frames, 25.0, crf)
-
-
 def grainy(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
     """(H, W, 3) uint8 of a float image with 1 grey level of sensor noise."""
     return np.clip(image + rng.normal(0, 1.0, image.shape), 0, 255).astype(np.uint8)
@@ -114,7 +108,7 @@ def grainy(image: np.ndarray, rng: np.random.Generator) -> np.ndarray:
 def as_decoded(tmp_path_factory, name: str, frames: np.ndarray) -> np.ndarray:
     """(F, H, W, 3) uint8 frames h264-encoded, as a renderer's would be, and decoded back."""
     path = tmp_path_factory.mktemp(name) / f"{name}.mp4"
-    _encode(path, frames)
+    write_mp4(path, frames, 25.0, crf=23)  # the generator's encoder: the same frames give the same video every run
     return read_video(path)[0]
 
 
@@ -122,7 +116,7 @@ def as_decoded(tmp_path_factory, name: str, frames: np.ndarray) -> np.ndarray:
 def checker_video(tmp_path_factory) -> tuple[np.ndarray, np.ndarray]:
     path = tmp_path_factory.mktemp("checker") / "checker.mp4"
     frames, touched = _render(seed=5)
-    _encode(path, frames)
+    write_mp4(path, frames, 25.0, crf=23)
     decoded, _ = read_video(path)
     return decoded, touched
 

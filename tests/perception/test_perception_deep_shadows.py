@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from perception.background import DEEP, OBJECT, Background, classify_pixels
 from perception.pipeline import _palette_appearance, _without_shadows, perceive_frames
 from perception.types import Attributes, LiftedTrack
 from tests.perception.test_perception_background import CAMERA, SIZE, _centre_at, _ground_xy, as_decoded, grainy, paint_objects
@@ -156,8 +157,6 @@ def test_a_sky_tinted_deep_shadow_on_a_blue_grey_floor_is_floor_chroma_and_a_dar
     channels) and the shadows became cyan objects. Colour evidence must exceed what compression does to any pixel
     (background.CANDIDATE_DIFFERENCE); dark paints differ by tens of grey levels and stay objects. (The same scene's
     contact shadows, (24, 37, 51), are 11 levels off and stay colour evidence.)"""
-    from perception.background import DEEP, OBJECT, Background, classify_pixels
-
     floor = np.array([96.0, 117.0, 124.0], dtype=np.float32)
     image = np.broadcast_to(floor, (8, 8, 3)).astype(np.float32)
     background = Background(image=image, floor_fit=image.copy(), static=np.zeros((8, 8), bool))

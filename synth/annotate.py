@@ -11,7 +11,7 @@ import numpy as np
 
 from planner.program import EventRecord, ObjectRecord, ProgramScene
 from synth.masks import bbox_of, encode_mask
-from synth.mjcf import CONTACT_HALF_PERIOD, TIMESTEP, pair_restitution
+from synth.mjcf import CONTACT_HALF_PERIOD, NATIVE_CCD, TIMESTEP, pair_restitution
 from synth.looks import look_document
 from synth.scene import GRAVITY, SceneSpec, camera_fovy_deg, camera_geometry
 from synth.simulate import DEBOUNCE_SECONDS, SimResult
@@ -19,7 +19,7 @@ from world.types import Event
 
 MIN_SEEN_FRAMES = 5  # an object shown in fewer observed frames is not named in questions
 
-GENERATOR_VERSION = "synth-2"  # synth-2 adds ground_truth.look; synth-1 files are the default look
+GENERATOR_VERSION = "synth-3"  # synth-3: libccd collisions (synth.mjcf.NATIVE_CCD); synth-2 added ground_truth.look
 
 
 def video_filename(index: int) -> str:
@@ -148,6 +148,7 @@ def ground_truth_document(spec: SceneSpec, sim: SimResult, counterfactuals: dict
             "timestep": TIMESTEP,
             "gravity": GRAVITY,
             "contact_half_period": CONTACT_HALF_PERIOD,
+            "native_ccd": NATIVE_CCD,
             "collision_debounce_seconds": DEBOUNCE_SECONDS,
             "pair_parameters": by_pair,
         },

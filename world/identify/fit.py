@@ -32,7 +32,7 @@ from world.footprint import footprint_gap
 from world.identify.graph import connected_components
 from world.identify.jacobian import SecantJacobian
 from world.identify.materials import MaterialRevision, REPORT_CHANGE, prior_mass, revise_materials
-from world.identify.local_fit import MU_BOUNDS, SlideFit, fit_slide, late_departure, robust_residuals, tail_state
+from world.identify.local_fit import MIN_FRICTION_SAMPLES, MU_BOUNDS, SlideFit, fit_slide, late_departure, robust_residuals, tail_state
 from world.identify.segments import (MIN_REST_SAMPLES, CandidateCollision, contact_episode_starts, find_candidate_collisions,
                                      precise_tracks, seen_touching, unexplained_start)
 from world.observations import ObjectTrack, Observations
@@ -231,9 +231,14 @@ def _fit_stretches(
     return TrackFit(track, tuple(fits), tuple(sorted(breakpoints)))
 
 
-def _friction_estimate(fit: TrackFit) -> float | None:
-    """Sample-weighted mean friction of the stretches that showed deceleration."""
-    values = [(s.friction, s.samples) for s in fit.stretches if s.friction_identified and np.hypot(*s.velocity) > 0]
+def _friction_estimate(fit: TrackFit, weak: bool = False) -> float | None:
+    """Sample-weighted geometric mean friction of the stretches that showed deceleration; ``weak``: of the
+    moving stretches of at least MIN_FRICTION_SAMPLES samples whose deceleration was too small a share of
+    their speed to count as identified (a short launch before a contact: a fair reading, not a sure one)."""
+    values = [
+        (s.friction, s.samples) for s in fit.stretches
+        if np.hypot(*s.velocity) > 0 and (not s.friction_identified and s.samples >= MIN_FRICTION_SAMPLES if weak else s.friction_identified)
+    ]
     if not values:
         return None
     mus, counts = zip(*values)
@@ -1097,16 +1102,27 @@ def _component_masses(
     return masses, identified
 
 
-def _similar_friction(track: ObjectTrack, usable: Sequence[ObjectTrack], own: Mapping[int, float | None], prior: float) -> float:
-    """The median identified friction of similar objects (same material and shape, then any), else the prior."""
-    for same in (
-        lambda o: o.material == track.material and o.shape.kind == track.shape.kind,
-        lambda o: True,
+def _similar_friction(
+    track: ObjectTrack, usable: Sequence[ObjectTrack], own: Mapping[int, float | None], weak: Mapping[int, float | None], prior: float,
+) -> tuple[float, str]:
+    """A body's friction when its own stretches did not identify one, and where it came from: the median
+    identified friction of similar objects (same material and shape, then any); else the weak readings
+    (``_friction_estimate(weak=True)``) of the body itself, then of similar objects; else the prior.
+    The prior is a guess several times the frictions the stretches read (0.3 against 0.05-0.1 in the
+    generator's scenes): a struck body that took it stopped in a third of the distance."""
+    others = [o for o in usable if o.id != track.id]
+    similar = [o for o in others if o.material == track.material and o.shape.kind == track.shape.kind]
+    for readings, pool, source in (
+        (own, similar, "median of similar objects"),
+        (own, others, "median of other objects"),
+        (weak, [track], "its own short stretches"),
+        (weak, similar, "short stretches of similar objects"),
+        (weak, others, "short stretches of other objects"),
     ):
-        values = [own[o.id] for o in usable if o.id != track.id and same(o) and own[o.id] is not None]
+        values = [readings[o.id] for o in pool if readings[o.id] is not None]
         if values:
-            return float(np.median(values))
-    return prior
+            return float(np.median(values)), source
+    return prior, "the prior"
 
 
 def _initial_estimates(
@@ -1117,6 +1133,7 @@ def _initial_estimates(
     """Per body: the entry state of its first stretch, friction (own, similar objects, prior), mass;
     and per body what was defaulted and why. Appends to ``flags``."""
     own_friction = {i: _friction_estimate(f) for i, f in track_fits.items()}
+    weak_friction = {i: _friction_estimate(f, weak=True) for i, f in track_fits.items()}
     defaulted: dict[int, dict[str, str]] = {t.id: {} for t in usable}
     estimates: dict[int, BodyEstimate] = {}
     for track in usable:
@@ -1130,8 +1147,8 @@ def _initial_estimates(
             first = replace(first, velocity=fit.stretches[1].velocity)
         friction = own_friction[track.id]
         if friction is None:
-            friction = _similar_friction(track, usable, own_friction, config.friction_prior)
-            defaulted[track.id]["friction"] = "no observed deceleration: median of similar objects"
+            friction, source = _similar_friction(track, usable, own_friction, weak_friction, config.friction_prior)
+            defaulted[track.id]["friction"] = f"no observed deceleration: {source}"
         if track.id not in mass_identified:
             defaulted[track.id]["mass"] = "no informative collision: density prior x shape volume"
         if int(track.observed.sum()) < config.min_frames:

@@ -65,3 +65,12 @@ def test_the_report_says_the_restitution_is_the_typical_one(late_fits):
             struck = next(o for o in report.objects if o.id == 1)
             assert "restitution" in struck.defaulted and "restitution" not in struck.identified
             assert world.pair_restitution[0][2] == pytest.approx(FitConfig().restitution_prior)
+
+
+def test_the_struck_body_takes_its_hitters_friction_reading_not_the_prior(late_fits):
+    # The hitter's launch (8-15 samples) is the only friction reading in these videos: identified or not,
+    # it is a better guess for the struck body than the prior, which is several times larger.
+    for _, truth, _, world, report in late_fits:
+        struck = next(o for o in report.objects if o.id == 1)
+        assert "the prior" not in struck.defaulted["friction"]
+        assert world.bodies[1].friction < 0.15

@@ -32,11 +32,10 @@ from synth.scene import COLOR_RGB, ObjectSpec, SceneSpec, camera_fovy_deg
 
 TIMESTEP = 0.002  # s; 20 physics steps per 25 fps frame
 CONTACT_HALF_PERIOD = 0.02  # s, duration of an object-object impact (10 physics steps)
-# Convex collisions by libccd, not MuJoCo's native CCD (on by default since 3.2): with the native
-# one a cylinder sliding into a cube's face at some yaws got a contact several millimetres deep at
-# once, and the stiff contact spring threw both bodies apart with up to 6x the kinetic energy they
-# brought (a quarter of the held-out sets' isolated cube-cylinder collisions gained energy; none with
-# libccd). tests/synth/test_physics.py::test_a_cylinder_striking_a_cube_gains_no_energy.
+# Convex collisions by libccd, not MuJoCo's native CCD (MuJoCo's default): with the native one a
+# cylinder striking a cube at some yaws threw both apart with up to 10x the kinetic energy they brought
+# (one in seven isolated cube-cylinder collisions of synth-2 datasets, bench/synth_energy.py; none with
+# libccd, and no other shape pair). tests/synth/test_physics.py::test_a_cylinder_striking_a_cube_gains_no_energy.
 NATIVE_CCD = False
 FLOOR_FRICTION = 0.01  # low; each pair sets its own friction anyway
 

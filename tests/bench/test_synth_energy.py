@@ -11,7 +11,7 @@ from bench.synth_energy import collision_energy_ratios, main
 
 
 def _document(shapes: tuple[str, str], speeds_after: tuple[float, float] | None = None) -> dict:
-    """A ground-truth-shaped document of one MuJoCo impact (40 frames); ``speeds_after``: replace both bodies'
+    """A ground-truth-shaped document of one MuJoCo impact (1.6 s); ``speeds_after``: replace both bodies'
     motion after the hit by these speeds along +x (m/s), to stage an impact that gains energy."""
     spec = pair_spec(shapes, 2.0, 0.0, (0.08, 0.08))
     result = run_pair(spec, 1.6)

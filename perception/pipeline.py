@@ -523,6 +523,9 @@ def _union(keep: LiftedTrack, other: LiftedTrack) -> LiftedTrack:
                    visible=np.array([t.visible[k] for t, k in pick]), weights=np.array([t.weights[k] for t, k in pick]))
 
 
+HUELESS_SHARE, FLOOR_CHROMA_SHARE = 3, 4  # indices of track_appearance's two shares (0-2: chromaticity)
+
+
 def track_appearance(track: TrackState, frames: np.ndarray, segments: list[FrameSegments] | None = None,
                      count: int = APPEARANCE_FRAMES) -> np.ndarray:
     """(5,) appearance of a tracklet over its whole life, over ``count`` frames spread along it: mean
@@ -553,7 +556,7 @@ def _palette_appearance(color: str) -> np.ndarray:
 def appearance_distance(a: np.ndarray, b: np.ndarray) -> float:
     """Distance between two (5,) appearances: chromaticity difference plus half the hue-less fraction difference.
     Around 0.02 for one object seen under different shading, 0.15-0.25 for red/brown or brown/yellow, > 0.4 for red/blue."""
-    return float(np.linalg.norm(a[:3] - b[:3]) + 0.5 * abs(a[3] - b[3]))
+    return float(np.linalg.norm(a[:3] - b[:3]) + 0.5 * abs(a[HUELESS_SHARE] - b[HUELESS_SHARE]))
 
 
 def _end_velocity(track: LiftedTrack, at_start: bool) -> np.ndarray:
@@ -967,7 +970,8 @@ def _shadow_offset(follower: LiftedTrack, caster: LiftedTrack, appearance: dict[
     to the floor about 0.4; POV-Ray's low-ambient light) are darker than background.DARK_OBJECT and so
     segmented as objects; the per-pixel test cannot tell them from grey objects, the geometry can
     (_without_shadows)."""
-    if max(appearance[follower.id][3], appearance[follower.id][4]) < SHADOW_HUELESS or appearance[caster.id][3] > CASTER_HUELESS:
+    darkened_floor = max(appearance[follower.id][HUELESS_SHARE], appearance[follower.id][FLOOR_CHROMA_SHARE])
+    if darkened_floor < SHADOW_HUELESS or appearance[caster.id][HUELESS_SHARE] > CASTER_HUELESS:
         return None
     common, i_follower, i_caster = np.intersect1d(follower.frames, caster.frames, return_indices=True)
     if common.size < max(SHADOW_MIN_FRAMES, SHADOW_SHARE * follower.frames.size):

@@ -235,10 +235,12 @@ def _friction_estimate(fit: TrackFit, weak: bool = False) -> float | None:
     """Sample-weighted geometric mean friction of the stretches that showed deceleration; ``weak``: of the
     moving stretches of at least MIN_FRICTION_SAMPLES samples whose deceleration was too small a share of
     their speed to count as identified (a short launch before a contact: a fair reading, not a sure one)."""
-    values = [
-        (s.friction, s.samples) for s in fit.stretches
-        if np.hypot(*s.velocity) > 0 and (not s.friction_identified and s.samples >= MIN_FRICTION_SAMPLES if weak else s.friction_identified)
-    ]
+    def counted(stretch: SlideFit) -> bool:
+        if weak:
+            return not stretch.friction_identified and stretch.samples >= MIN_FRICTION_SAMPLES
+        return stretch.friction_identified
+
+    values = [(s.friction, s.samples) for s in fit.stretches if np.hypot(*s.velocity) > 0 and counted(s)]
     if not values:
         return None
     mus, counts = zip(*values)

@@ -28,7 +28,7 @@ from perception.attributes import color_votes
 from perception.background import AMBIGUOUS, FLOOR, is_foreground
 from perception.geometry import silhouette
 from perception.material_model import appearance_windows
-from perception.pipeline import MAX_APPEARANCE_FRAMES, PrimitiveLifter, _isolated_frames, _spread, perceive_frames
+from perception.pipeline import PrimitiveLifter, _appearance_frames, _isolated_frames, perceive_frames
 from perception.video import read_video
 from synth.masks import decode_mask
 from world.io import load_camera
@@ -87,7 +87,7 @@ def scene_samples(root: Path, index: int) -> dict:
         if track.id not in lifter.shape_record:
             continue
         isolated = _isolated_frames(track, segments)
-        chosen = _spread(isolated, MAX_APPEARANCE_FRAMES) or _spread(sorted(track.detections), MAX_APPEARANCE_FRAMES)
+        chosen = _appearance_frames(track, segments)  # the frames perception itself decides colour and material on
         detections = [track.detections[f] for f in chosen]
         votes: dict[int, int] = {}
         for det in detections:

@@ -236,7 +236,7 @@ class PrimitiveLifter:
                 weight *= WEIGHT_BORDER
             if det.split or frame in track.merged:
                 weight *= WEIGHT_SPLIT
-            elif sum(1 for d in segments[frame].detections if d.component == det.component) > 1:
+            elif not _alone(det, segments):
                 weight *= WEIGHT_TOUCHING
             frame_ids.append(frame)
             positions.append(fit.centre)

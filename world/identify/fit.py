@@ -1127,6 +1127,12 @@ def _similar_friction(
     return prior, "the prior"
 
 
+# Samples a body's first stretch needs for its own velocity to start the joint fit: two samples show the
+# direction a body comes from; a contact at the video's third frame leaves two, and the next stretch's velocity
+# (after the hit) points the other way in a head-on one (97474 scene 80 from video: 2.8 m off).
+MIN_VELOCITY_SAMPLES = 2
+
+
 def _initial_estimates(
     usable: Sequence[ObjectTrack], track_fits: Mapping[int, TrackFit], masses: Mapping[int, float],
     mass_identified: set[int], default_e: float, restitution_observed: bool, candidates: Sequence,
@@ -1142,7 +1148,7 @@ def _initial_estimates(
         fit = track_fits[track.id]
         first = fit.stretches[0]
         rest_start = first.samples >= MIN_REST_SAMPLES and not np.any(first.velocity)
-        if first.samples < 3 and len(fit.stretches) > 1:
+        if first.samples < MIN_VELOCITY_SAMPLES and len(fit.stretches) > 1:
             # A contact right after entering the view: the velocity before it
             # was never seen. Start from the next stretch's velocity and let
             # the joint fit find the one that explains the contact.

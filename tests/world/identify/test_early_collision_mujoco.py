@@ -11,23 +11,23 @@ collision (held-out set 97474, scene 80 from video: the body 2.8 m off).
 from __future__ import annotations
 
 import numpy as np
-import pytest
 
 from bench.pair_mujoco import pair_spec, run_pair
 from world.identify.fit import FitConfig, identify
-from world.observations import ObjectTrack, Observations
+from world.observations import Observations
 from world.rollout import simulate
-from world.types import Shape
+from tests.world.identify.cylinder_tracks import cylinder_track
 
-CYLINDER = Shape("cylinder", radius=0.2, half_height=0.2)
 # (m/s, lateral offset m, the resting one's mass over the mover's)
 LAUNCHES = ((2.0, 0.0, 1.0), (1.6, 0.1, 0.5), (2.4, -0.1, 2.0), (1.8, 0.05, 1.0))
 LEAD_FRAMES = (3, 4)  # the video begins this many frames before the hit
 VIDEO_FRAMES = 40
 NOISE_M = 0.005
-# replay against MuJoCo over the video, both bodies: within twice the tracks' noise on most launches (main: median
-# 0.023 / 0.015 m for leads 3 / 4, this rule 0.003 / 0.003 m)
-MAX_MEDIAN_RMSE_M = 2 * NOISE_M
+NOISE_DRAWS = 6  # noise draws per launch and lead
+# replay against MuJoCo over the video, both bodies: within twice the tracks' noise on most fits (over 48 fits,
+# main 2eab530: 0.50 of them, lead 3 / 4 medians 0.020 / 0.003 m; this rule 0.83, 0.004 / 0.003 m)
+CLOSE_M = 2 * NOISE_M
+MIN_CLOSE_SHARE = 0.75
 
 
 def _early_fit(speed: float, offset: float, mass_ratio: float, lead: int, seed: int):
@@ -40,20 +40,19 @@ def _early_fit(speed: float, offset: float, mass_ratio: float, lead: int, seed: 
     rng = np.random.default_rng(seed)
     positions = truth.positions[first:first + VIDEO_FRAMES]
 
-    def track(body_id: int) -> ObjectTrack:
-        noisy = positions[:, body_id].copy()
-        noisy[:, :2] += rng.normal(0.0, NOISE_M, (VIDEO_FRAMES, 2))
-        return ObjectTrack(body_id, CYLINDER, frames, noisy, np.full(VIDEO_FRAMES, np.nan), np.ones(VIDEO_FRAMES, dtype=bool),
-                           np.ones(VIDEO_FRAMES), color="red", material="rubber")
-
-    world, _ = identify(Observations((track(0), track(1)), truth.fps, VIDEO_FRAMES, None), FitConfig())
+    noisy = positions.copy()
+    noisy[:, :, :2] += rng.normal(0.0, NOISE_M, (VIDEO_FRAMES, 2, 2))
+    tracks = tuple(cylinder_track(body_id, frames, noisy[:, body_id]) for body_id in (0, 1))
+    world, _ = identify(Observations(tracks, truth.fps, VIDEO_FRAMES, None), FitConfig())
     replay = simulate(world, (), VIDEO_FRAMES)
     order = [list(replay.body_ids).index(b) for b in (0, 1)]
     error = replay.positions[:, order, :2] - positions[:, :, :2]
     return float(np.sqrt(np.mean(np.sum(error**2, axis=2))))
 
 
-@pytest.mark.parametrize("lead", LEAD_FRAMES)
-def test_a_collision_in_the_first_frames_is_replayed(lead):
-    rmses = [_early_fit(*launch, lead, seed) for seed, launch in enumerate(LAUNCHES)]
-    assert np.median(rmses) < MAX_MEDIAN_RMSE_M, f"replay RMSE (m) per launch: {np.round(rmses, 3).tolist()}"
+def test_a_collision_in_the_first_frames_is_replayed():
+    rmses = np.array([[[_early_fit(*launch, lead, 100 * draw + k) for k, launch in enumerate(LAUNCHES)]
+                       for draw in range(NOISE_DRAWS)] for lead in LEAD_FRAMES])
+    share = float(np.mean(rmses < CLOSE_M))
+    assert share >= MIN_CLOSE_SHARE, (f"{share:.2f} of the fits within {CLOSE_M} m; median RMSE (m) per lead "
+                                      f"{np.round(np.median(rmses, axis=(1, 2)), 4).tolist()}")

@@ -16,11 +16,10 @@ import pytest
 
 from bench.pair_mujoco import lone_spec, pair_spec, run_pair
 from world.identify.fit import FitConfig, identify
-from world.observations import ObjectTrack, Observations
+from world.observations import Observations
 from world.rollout import simulate
-from world.types import Shape
+from tests.world.identify.cylinder_tracks import cylinder_track
 
-CYLINDER = Shape("cylinder", radius=0.2, half_height=0.2)
 FAR = np.array([0.0, 3.0, 0.0])  # m: where the lone cylinder slides (out of reach)
 
 AFTER_HIT = 6  # frames of the video after the hit
@@ -36,11 +35,7 @@ def test_a_body_hit_in_the_last_frames_is_anchored_at_mujocos_velocity(speed, of
     frames = np.arange(last + 1)
     lone = run_pair(lone_spec("cylinder", (1.2, 0.3), 0.08), 3.0)
 
-    def track(body_id, positions):
-        return ObjectTrack(body_id, CYLINDER, frames, positions, np.full(last + 1, np.nan), np.ones(last + 1, dtype=bool),
-                           np.ones(last + 1), color="red", material="rubber")
-
-    tracks = (track(1, truth.positions[: last + 1, 1]), track(2, lone.positions[: last + 1, 0] + FAR))
+    tracks = (cylinder_track(1, frames, truth.positions[: last + 1, 1]), cylinder_track(2, frames, lone.positions[: last + 1, 0] + FAR))
     world, _ = identify(Observations(tracks, truth.fps, last + 1, None), FitConfig())
     anchored = dict(world.anchor.states) if world.anchor is not None else {}
     assert 1 in anchored

@@ -17,11 +17,10 @@ import pytest
 
 from bench.pair_mujoco import pair_spec, run_pair
 from world.identify.fit import FitConfig, identify
-from world.observations import ObjectTrack, Observations
+from world.observations import Observations
 from world.rollout import simulate
-from world.types import Shape
+from tests.world.identify.cylinder_tracks import cylinder_track
 
-CYLINDER = Shape("cylinder", radius=0.2, half_height=0.2)
 # (m/s, lateral offset m) of the moving cylinder, the resting one's mass over its mass
 LAUNCHES = ((1.5, 0.0, 1.0), (1.3, 0.1, 1.0), (1.8, -0.1, 1.0), (1.2, 0.05, 1.0),
             (1.5, 0.0, 0.5), (1.3, 0.1, 2.0), (1.8, -0.1, 0.5), (1.2, 0.05, 2.0))
@@ -36,11 +35,8 @@ def _fit_ending_after_hit(speed: float, offset: float, mass_ratio: float, after:
     last = hit + after
     frames = np.arange(last + 1)
 
-    def track(body_id: int) -> ObjectTrack:
-        return ObjectTrack(body_id, CYLINDER, frames, truth.positions[: last + 1, body_id], np.full(last + 1, np.nan),
-                           np.ones(last + 1, dtype=bool), np.ones(last + 1), color="red", material="rubber")
-
-    world, report = identify(Observations((track(0), track(1)), truth.fps, last + 1, None), FitConfig())
+    tracks = tuple(cylinder_track(body_id, frames, truth.positions[: last + 1, body_id]) for body_id in (0, 1))
+    world, report = identify(Observations(tracks, truth.fps, last + 1, None), FitConfig())
     return truth, last, world, report
 
 

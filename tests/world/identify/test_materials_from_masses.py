@@ -16,10 +16,10 @@ import pytest
 from bench.pair_mujoco import pair_spec, run_pair
 from world.identify.fit import FitConfig, identify
 from world.identify.materials import MAX_LINK_RMSE, prior_mass, revise_materials, shape_volume
-from world.observations import ObjectTrack, Observations
-from world.types import AttributeBelief, Body, BodyState, Shape, World
+from world.observations import Observations
+from world.types import AttributeBelief, Body, BodyState, World
+from tests.world.identify.cylinder_tracks import CYLINDER, cylinder_track
 
-CYLINDER = Shape("cylinder", radius=0.2, half_height=0.2)
 DENSITY = FitConfig().density_prior
 
 
@@ -33,12 +33,9 @@ def _mujoco_pair(mass_ratio: float, beliefs: tuple[float, float], config: FitCon
     n = truth.positions.shape[0]
     frames = np.arange(n)
 
-    def track(body_id: int) -> ObjectTrack:
-        material = "metal" if beliefs[body_id] > 0.5 else "rubber"
-        return ObjectTrack(body_id, CYLINDER, frames, truth.positions[:, body_id], np.full(n, np.nan), np.ones(n, dtype=bool),
-                           np.ones(n), color="red", material=material, attribute_belief=_belief(beliefs[body_id]))
-
-    return identify(Observations((track(0), track(1)), truth.fps, n, None), config)
+    tracks = tuple(cylinder_track(b, frames, truth.positions[:, b], "metal" if beliefs[b] > 0.5 else "rubber", _belief(beliefs[b]))
+                   for b in (0, 1))
+    return identify(Observations(tracks, truth.fps, n, None), config)
 
 
 def _p_metal(world: World, body_id: int) -> float:

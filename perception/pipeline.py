@@ -46,8 +46,10 @@ DUPLICATE_SIZES = 1.5  # tracklets closer than this many object sizes (radii) on
 STRAY_SHARE = 0.5  # share of its frames a track may spend inside longer tracks (see _without_strays) and still be an object
 KEEP_SHARE = 0.5  # on a frame two joined tracklets both hold, the better supported one's sample stays unless it weighs less than this share of the other's
 MAX_APPEARANCE_FRAMES = 16  # isolated frames used to decide colour / material (cheap per frame)
-MOST_IN_VIEW_AREA = 0.8  # without isolated frames, a border frame decides attributes when its segment is at least this
-MOST_IN_VIEW_FRAMES = 3  # share of the area the track's segments reach on this many frames (_decisive_frames)
+# Without isolated frames, a frame at the border decides attributes when its segment is at least MOST_IN_VIEW_AREA
+# of the area the track's unsplit segments reach on MOST_IN_VIEW_FRAMES frames (_decisive_frames).
+MOST_IN_VIEW_AREA = 0.8
+MOST_IN_VIEW_FRAMES = 3
 MIN_SHAPE_SCORE = 0.4  # mean silhouette overlap below which a track is not an object
 
 # Per-frame confidence: lower where the object is cut by the border, touches

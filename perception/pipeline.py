@@ -231,7 +231,9 @@ class PrimitiveLifter:
             if previous is not None and _same_segment(reference, det):
                 fit = previous  # a resting object: the same pixels give the same pose (most frames of most videos)
             else:
-                fit = fit_detection(camera, kind, det, segments[frame].labels, self.size, previous, free_top, reach)
+                labels = segments[frame].labels
+                # placed by its body: its own hard shadow (deep pixels of a coloured segment) would draw the fit onto it
+                fit = fit_detection(camera, kind, body_of(det, own_shadow(labels, det)), labels, self.size, previous, free_top, reach)
                 previous, reference = fit, det
             weight = float(np.clip(fit.score / 0.7, 0.0, 1.0))
             if det.touches_border:

@@ -24,16 +24,21 @@ LIGHT_SHIFT = np.array([-0.25, 0.12])  # m: the shadow's centre on the floor, fr
 OBJECTS = (("sphere", "red", (40, 210), (300, 280)), ("cube", "blue", (230, 70), (450, 200)))
 
 
-def _render(seed: int) -> np.ndarray:
+def _centres(frame: int) -> list[np.ndarray]:
+    """(3,) m centre of each of OBJECTS at a frame (moving at constant speed from start to end pixel)."""
+    t = frame / (FRAMES - 1)
+    return [_centre_at(*(np.asarray(a) + t * (np.asarray(b) - np.asarray(a)))) for _, _, a, b in OBJECTS]
+
+
+def _render(seed: int, light_shift: np.ndarray = LIGHT_SHIFT) -> np.ndarray:
     rng = np.random.default_rng(seed)
     ground = _ground_xy()
     frames = []
     for f in range(FRAMES):
-        t = f / (FRAMES - 1)
-        centres = [_centre_at(*(np.asarray(a) + t * (np.asarray(b) - np.asarray(a)))) for _, _, a, b in OBJECTS]
+        centres = _centres(f)
         light = np.ones((CAMERA.height, CAMERA.width, 3))
         for centre in centres:  # hard shadow: an ellipse on the floor, no penumbra
-            offset = (ground - (centre[:2] + LIGHT_SHIFT)) / np.array([0.35, 0.22])
+            offset = (ground - (centre[:2] + light_shift)) / np.array([0.35, 0.22])
             light[np.linalg.norm(offset, axis=-1) < 1.0] = SHADOW_RATIO
         image = FLOOR_RGB * light
         paint_objects(image, [(kind, colour) for kind, colour, _, _ in OBJECTS], centres)
@@ -50,6 +55,24 @@ def test_deep_hard_shadows_are_not_objects(deep_shadow_video):
     observations, inter = perceive_frames(deep_shadow_video, CAMERA)
     assert len(inter["tracks"]) > len(OBJECTS)  # the shadows were tracked: the test exercises the motion rule
     assert sorted(o.color for o in observations.objects) == ["blue", "red"]
+
+
+def test_a_coloured_object_is_placed_by_its_body_not_by_its_own_hard_shadow(tmp_path_factory):
+    """A shadow reaching out from under the object (its centre 0.22 m away) fills the floor beside its base: the
+    deep pixels next to the paint join the object's segment, and a fit that takes them for the object slides onto
+    them (the red sphere 2.0-2.4 cm off, median per video, before its own shadow was left out of the fit). Three
+    grain draws; each object's median plane error over its frames."""
+    errors = {colour: [] for _, colour, _, _ in OBJECTS}
+    for seed in (11, 12, 13):
+        video = as_decoded(tmp_path_factory, f"own_shadow_{seed}", _render(seed, np.array([-0.2, -0.1])))
+        observations, _ = perceive_frames(video, CAMERA)
+        for index, (_, colour, _, _) in enumerate(OBJECTS):
+            track = next(o for o in observations.objects if o.color == colour)
+            inside = track.frames < FRAMES
+            truth = np.array([_centres(int(f))[index][:2] for f in track.frames[inside]])
+            errors[colour].append(float(np.median(np.linalg.norm(track.positions[inside, :2] - truth, axis=1))))
+    for colour, medians in errors.items():
+        assert max(medians) <= 0.012, (colour, medians)
 
 
 def _track(track_id: int, frames: range, start: tuple[float, float], velocity: tuple[float, float],

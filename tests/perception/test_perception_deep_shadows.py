@@ -67,7 +67,9 @@ def test_a_coloured_object_is_placed_by_its_body_not_by_its_own_hard_shadow(tmp_
         video = as_decoded(tmp_path_factory, f"own_shadow_{seed}", _render(seed, np.array([-0.2, -0.1])))
         observations, _ = perceive_frames(video, CAMERA)
         for index, (_, colour, _, _) in enumerate(OBJECTS):
-            track = next(o for o in observations.objects if o.color == colour)
+            tracks = [o for o in observations.objects if o.color == colour]
+            assert len(tracks) == 1, (seed, colour, [o.color for o in observations.objects])
+            track = tracks[0]
             inside = track.frames < FRAMES
             truth = np.array([_centres(int(f))[index][:2] for f in track.frames[inside]])
             errors[colour].append(float(np.median(np.linalg.norm(track.positions[inside, :2] - truth, axis=1))))

@@ -212,9 +212,8 @@ class PrimitiveLifter:
         """One tracklet lifted to the plane with its attributes, and its per-kind shape overlaps; None when no
         primitive of the known size explains it (a fragment, not an object). reach: the video's light
         (light_reach), given for grey tracks, whose segments may hold their shadows."""
-        decisive = _decisive_frames(track, segments)
-        basis = _spread(decisive, MAX_ATTRIBUTE_FRAMES)
-        appearance_frames = _spread(decisive, MAX_APPEARANCE_FRAMES)
+        basis = _spread(_decisive_frames(track, segments), MAX_ATTRIBUTE_FRAMES)
+        appearance_frames = _appearance_frames(track, segments)
         if reach is not None and not _grey_paint(track, frames, appearance_frames):
             reach = None  # a dark paint segmented hue-less (a brown metal body): its deep pixels are its body
         # an object with the floor's chroma may show its top as floor (lift.fit_primitive's free_top): most frames decide

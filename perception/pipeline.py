@@ -147,13 +147,21 @@ def _grey_paint(track: TrackState, frames: np.ndarray, appearance_frames: list[i
 
 def _beside_shadows_only(state: TrackState, segments: list[FrameSegments]) -> list[int]:
     """Frames where the track's segment is whole (not split, not at the border) and shares its component with
-    hue-less segments only: its own shadow may touch it, another coloured object may not."""
+    shadow-like segments only (hue-less, or the floor darkened on most pixels: a hard shadow on a tinted floor
+    keeps the floor's hue, _deep_segment): its own shadow may touch it, another coloured object may not."""
     chosen = []
     for frame, det in sorted(state.detections.items()):
         others = [d for d in segments[frame].detections if d.component == det.component and d is not det]
-        if not det.split and not det.touches_border and all(d.hue_label == NEUTRAL for d in others):
+        if not det.split and not det.touches_border and all(d.hue_label == NEUTRAL or _deep_segment(d, segments[frame].labels)
+                                                            for d in others):
             chosen.append(frame)
     return chosen
+
+
+def _deep_segment(det: Detection, labels: np.ndarray) -> bool:
+    """Whether at least SHADOW_HUELESS of a segment's pixels are the floor darkened with its own chroma
+    (background.DEEP; labels: the frame's (H, W) pixel labels)."""
+    return bool(np.mean(labels[det.ys, det.xs] == DEEP) >= SHADOW_HUELESS)
 
 
 def light_reach(camera: Camera, size: float, coloured: list[tuple[TrackState, LiftedTrack]],
@@ -304,7 +312,7 @@ class PrimitiveLifter:
             return _redecide_attributes(merged, pooled, frames, segments)
 
         if reach is not None:  # before association: a shadow tracklet joined to its caster would move it
-            lifted = _without_cast_shadows(lifted, states, camera, self.size, reach)
+            lifted = _without_cast_shadows(lifted, states, appearance, camera, self.size, reach)
         associated = _associate(lifted, self.size, appearance, explained=explained, decide=decide)
         # A short piece of a track cut at a gap that joins nothing and appears and vanishes inside the image is
         # what the tracker's widened gate had attached to that track (a shadow, a reflection), not an object:
@@ -992,8 +1000,7 @@ def _shadow_offset(follower: LiftedTrack, caster: LiftedTrack, appearance: dict[
     to the floor about 0.4; POV-Ray's low-ambient light) are darker than background.DARK_OBJECT and so
     segmented as objects; the per-pixel test cannot tell them from grey objects, the geometry can
     (_without_shadows)."""
-    darkened_floor = max(appearance[follower.id][HUELESS_SHARE], appearance[follower.id][FLOOR_CHROMA_SHARE])
-    if darkened_floor < SHADOW_HUELESS or appearance[caster.id][HUELESS_SHARE] > CASTER_HUELESS:
+    if not _darkened_floor(appearance[follower.id]) or appearance[caster.id][HUELESS_SHARE] > CASTER_HUELESS:
         return None
     common, i_follower, i_caster = np.intersect1d(follower.frames, caster.frames, return_indices=True)
     if common.size < max(SHADOW_MIN_FRAMES, SHADOW_SHARE * follower.frames.size):
@@ -1043,13 +1050,26 @@ def _in_cast_shadows(state: TrackState, casters: list[LiftedTrack], camera: Came
     return explained >= CAST_SHADOW_MAJORITY * len(checked)
 
 
-def _without_cast_shadows(tracks: list[LiftedTrack], states: dict[int, TrackState], camera: Camera, size: float,
-                          reach: np.ndarray) -> list[LiftedTrack]:
-    """The tracks without the grey ones that the other tracks' shadows explain (_in_cast_shadows): a shadow cut off
-    from its caster's segment, which a grey caster's (a grey cube's) is, and which _without_shadows does not judge.
-    A grey object standing in another's shadow still rises out of it in the image."""
+def _darkened_floor(appearance: np.ndarray) -> bool:
+    """Whether a tracklet's pixels (track_appearance's (5,)) look like the floor darkened by a shadow: at least
+    SHADOW_HUELESS of them hue-less or with the floor's own chroma (background.DEEP)."""
+    return bool(max(appearance[HUELESS_SHARE], appearance[FLOOR_CHROMA_SHARE]) >= SHADOW_HUELESS)
+
+
+def _without_cast_shadows(tracks: list[LiftedTrack], states: dict[int, TrackState], appearance: dict[int, np.ndarray],
+                          camera: Camera, size: float, reach: np.ndarray) -> list[LiftedTrack]:
+    """The tracks without the shadow-like ones that the other tracks' shadows explain (_in_cast_shadows): a shadow
+    cut off from its caster's segment, which a grey caster's (a grey cube's) is, and which _without_shadows does not
+    judge, or the shadow of a resting caster when no other shadow of the video is tracked. Shadow-like: read grey,
+    or its pixels the floor darkened (_darkened_floor): a hard shadow on a tinted floor keeps the floor's hue and
+    is voted that colour (Blender dev seed 98787, scene 3: four brown tracks, shadows of resting objects on a warm
+    floor). A grey object standing in another's shadow still rises out of it in the image; a coloured object's
+    paint is not the floor's chroma."""
+    def shadow_like(track: LiftedTrack) -> bool:
+        return track.attributes.color == "gray" or (track.id in appearance and _darkened_floor(appearance[track.id]))
+
     return [track for track in tracks
-            if track.attributes.color != "gray" or not states.get(track.id) or not states[track.id].detections
+            if not shadow_like(track) or not states.get(track.id) or not states[track.id].detections
             or not _in_cast_shadows(states[track.id], [t for t in tracks if t is not track], camera, size, reach)]
 
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from perception.background import DEEP, OBJECT, Background, classify_pixels
-from perception.pipeline import _palette_appearance, _without_shadows, perceive_frames
+from perception.pipeline import _darkened_floor, _palette_appearance, _without_shadows, perceive_frames
 from perception.types import Attributes, LiftedTrack
 from tests.perception.test_perception_background import CAMERA, SIZE, _centre_at, _ground_xy, as_decoded, grainy, paint_objects
 
@@ -194,3 +194,47 @@ def test_a_sky_tinted_deep_shadow_on_a_blue_grey_floor_is_floor_chroma_and_a_dar
     got = {name: int(labels[k, 0]) for k, name in enumerate(pixels)}
     assert got == {"tinted shadow": DEEP, "neutral shadow": DEEP,
                    "dark blue paint": OBJECT, "dark brown paint": OBJECT, "dark cyan paint": OBJECT}, got
+
+
+WARM_FLOOR_RGB = np.array([160.0, 115.0, 95.0])  # a tinted floor: its hard shadow keeps a hue, (62, 48, 44)
+
+
+def _resting_caster_video(seed: int) -> np.ndarray:
+    """One blue cube that moves a little (under one object size) and rests, its hard shadow at LIGHT_SHIFT on a
+    tinted floor, so the shadow is voted brown."""
+    rng = np.random.default_rng(seed)
+    ground = _ground_xy()
+    frames = []
+    for f in range(FRAMES):
+        cube = _centre_at(240 + 20 * min(f, 20) / 20, 170)
+        light = np.ones((CAMERA.height, CAMERA.width, 3))
+        offset = (ground - (cube[:2] + LIGHT_SHIFT)) / np.array([0.35, 0.22])
+        light[np.linalg.norm(offset, axis=-1) < 1.0] = SHADOW_RATIO
+        image = WARM_FLOOR_RGB * light
+        paint_objects(image, [("cube", "blue")], [cube])
+        frames.append(grainy(image, rng))
+    return np.stack(frames)
+
+
+@pytest.mark.parametrize("seed", [21, 22])
+def test_the_hued_shadow_of_a_resting_object_is_not_an_object(tmp_path_factory, seed):
+    """Blender dev seed 98787, scene 3: on a tinted floor a hard shadow keeps the floor's hue and is voted a colour
+    (brown), and a resting caster's shadow keeps its offset as any neighbour does, so neither the grey rule nor the
+    motion rule (_without_shadows) can call it a shadow; the video's light (light_reach, from the coloured cube's
+    own shadow) predicts it, and its pixels are the floor darkened (_darkened_floor)."""
+    video = as_decoded(tmp_path_factory, f"hued_shadow_{seed}", _resting_caster_video(seed))
+    observations, inter = perceive_frames(video, CAMERA)
+    assert len(inter["tracks"]) > 1  # the shadow was tracked: the test exercises the rule
+    assert [o.color for o in observations.objects] == ["blue"], [(o.color, o.shape.kind) for o in observations.objects]
+
+
+def test_only_a_segment_of_darkened_floor_counts_as_shadow_like():
+    """The gate of the rule above (pipeline._darkened_floor; _deep_segment per segment): a tracklet is shadow-like
+    when most of its pixels are the floor darkened with its own chroma; a painted object's are not, whatever its
+    colour. Appearances as measured on Blender dev seed 98787, scene 3 (brown shadows on a warm floor: 0.83-0.99 of
+    their pixels floor chroma; the brown sphere itself 0.03)."""
+    brown = _palette_appearance("brown")
+    assert _darkened_floor(np.append(brown[:3], [0.24, 0.83]))
+    assert _darkened_floor(np.append(brown[:3], [0.85, 0.10]))  # hue-less: grey shadows were always shadow-like
+    assert not _darkened_floor(np.append(brown[:3], [0.00, 0.03]))
+    assert not _darkened_floor(np.append(brown[:3], [0.24, 0.42]))

@@ -1066,7 +1066,7 @@ def _without_cast_shadows(tracks: list[LiftedTrack], states: dict[int, TrackStat
     floor). A grey object standing in another's shadow still rises out of it in the image; a coloured object's
     paint is not the floor's chroma."""
     def shadow_like(track: LiftedTrack) -> bool:
-        return track.attributes.color == "gray" or (track.id in appearance and _darkened_floor(appearance[track.id]))
+        return track.attributes.color == "gray" or _darkened_floor(appearance[track.id])
 
     return [track for track in tracks
             if not shadow_like(track) or not states.get(track.id) or not states[track.id].detections

@@ -30,17 +30,23 @@ def _centres(frame: int) -> list[np.ndarray]:
     return [_centre_at(*(np.asarray(a) + t * (np.asarray(b) - np.asarray(a)))) for _, _, a, b in OBJECTS]
 
 
+def _hard_shadows(centres: list[np.ndarray], light_shift: np.ndarray = LIGHT_SHIFT) -> np.ndarray:
+    """(H, W, 3) light per pixel: SHADOW_RATIO inside each object's hard shadow (an ellipse on the floor at
+    light_shift (2,) m from its centre, no penumbra), 1 elsewhere."""
+    ground = _ground_xy()
+    light = np.ones((CAMERA.height, CAMERA.width, 3))
+    for centre in centres:
+        offset = (ground - (centre[:2] + light_shift)) / np.array([0.35, 0.22])
+        light[np.linalg.norm(offset, axis=-1) < 1.0] = SHADOW_RATIO
+    return light
+
+
 def _render(seed: int, light_shift: np.ndarray = LIGHT_SHIFT) -> np.ndarray:
     rng = np.random.default_rng(seed)
-    ground = _ground_xy()
     frames = []
     for f in range(FRAMES):
         centres = _centres(f)
-        light = np.ones((CAMERA.height, CAMERA.width, 3))
-        for centre in centres:  # hard shadow: an ellipse on the floor, no penumbra
-            offset = (ground - (centre[:2] + light_shift)) / np.array([0.35, 0.22])
-            light[np.linalg.norm(offset, axis=-1) < 1.0] = SHADOW_RATIO
-        image = FLOOR_RGB * light
+        image = FLOOR_RGB * _hard_shadows(centres, light_shift)
         paint_objects(image, [(kind, colour) for kind, colour, _, _ in OBJECTS], centres)
         frames.append(grainy(image, rng))
     return np.stack(frames)
@@ -203,14 +209,10 @@ def _resting_caster_video(seed: int) -> np.ndarray:
     """One blue cube that moves a little (under one object size) and rests, its hard shadow at LIGHT_SHIFT on a
     tinted floor, so the shadow is voted brown."""
     rng = np.random.default_rng(seed)
-    ground = _ground_xy()
     frames = []
     for f in range(FRAMES):
         cube = _centre_at(240 + 20 * min(f, 20) / 20, 170)
-        light = np.ones((CAMERA.height, CAMERA.width, 3))
-        offset = (ground - (cube[:2] + LIGHT_SHIFT)) / np.array([0.35, 0.22])
-        light[np.linalg.norm(offset, axis=-1) < 1.0] = SHADOW_RATIO
-        image = WARM_FLOOR_RGB * light
+        image = WARM_FLOOR_RGB * _hard_shadows([cube])
         paint_objects(image, [("cube", "blue")], [cube])
         frames.append(grainy(image, rng))
     return np.stack(frames)

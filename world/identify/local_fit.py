@@ -121,6 +121,11 @@ def fit_slide(
     rest = SlideFit(start_time, centre, np.zeros(2), friction_prior, False, rest_rmse, int(t.shape[0]))
     if rest_rmse < REST_RMSE:
         return rest
+    if t.shape[0] == 2:
+        # Two samples fix a position and a velocity, not a friction too: any friction fits them exactly (the
+        # optimiser's pick, up to the bound, set the velocity); the mean velocity between them is off the
+        # start's by mu g dt / 2 (1.6 cm/s at mu 0.08, 25 fps).
+        return SlideFit(start_time, p[0].copy(), velocity0, friction_prior, False, 0.0, 2)
 
     def residuals(params: np.ndarray) -> np.ndarray:
         position, velocity, log_mu = params[:2], params[2:4], params[4]

@@ -26,8 +26,8 @@ MIN_FRICTION_SAMPLES = 8
 # reads its friction when the fit pins it down: the standard error of log mu
 # (from the fit's own residuals, so it scales with the track's noise) at most
 # this, over at least FRICTION_READ_MIN_DOF residual degrees of freedom. Exact
-# tracks read mu from five samples at 2.4 m/s to 1 %; perceived tracks (noise
-# of millimetres to centimetres) rarely pass.
+# tracks read mu from five samples at 2.4 m/s to 1 %; six samples with a
+# centimetre of noise do not pass (tests/world/identify/test_late_entry_mujoco.py).
 FRICTION_READ_SIGMA = 0.1
 FRICTION_READ_MIN_DOF = 3
 # Weighted position residuals (m) beyond this count linearly, not squared

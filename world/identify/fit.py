@@ -218,9 +218,10 @@ def _fit_stretches(
         # docs/benchmarks.md, thirty-fifth round), unless the last stretch
         # would keep fewer than two: a body seen on the video's last two
         # frames only keeps both, and with them its velocity.
-        inside = observed & (track.frames > low + (1 if fits else 0)) & (track.frames < high - 1)
+        after_low = observed & (track.frames > low + (1 if fits else 0))
+        inside = after_low & (track.frames < high - 1)
         if index == len(edges) - 2 and inside.sum() < 2:
-            inside = observed & (track.frames > low + (1 if fits else 0)) & (track.frames < high)
+            inside = after_low & (track.frames < high)
         if inside.sum() == 0:
             inside = observed & (track.frames > low) & (track.frames < high)
         if inside.sum() == 0:

@@ -9,7 +9,6 @@ end of the observed window.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -180,12 +179,12 @@ def _log_friction_error(result, mu: float) -> float:
     jacobian = np.asarray(result.jac, dtype=float)
     dof = jacobian.shape[0] - jacobian.shape[1]
     if dof < FRICTION_READ_MIN_DOF or not MU_BOUNDS[0] * 1.01 < mu < MU_BOUNDS[1] * 0.99:
-        return math.inf
+        return np.inf
     variance = float(result.fun @ result.fun) / dof
     try:
         covariance = np.linalg.inv(jacobian.T @ jacobian) * variance
     except np.linalg.LinAlgError:
-        return math.inf
+        return np.inf
     return float(np.sqrt(max(covariance[4, 4], 0.0)))
 
 
